@@ -1,0 +1,1 @@
+"""Versioned generator presets (installed as `pcbdata._preset_files`)."""

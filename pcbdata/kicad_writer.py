@@ -1,0 +1,217 @@
+"""Writes a `Board` as KiCad 9 files: `.kicad_pcb`, `.kicad_pro` and, where needed, `.kicad_dru`.
+
+The output is a pure function of the board: numbers are formatted from integer nanometres and
+UUIDs are derived from the board's `uuid_seed`, so the same board gives the same bytes.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import uuid
+
+from pcbdata.board import Board, Pad, Rules
+
+KICAD_PCB_VERSION = 20241229  # the file format KiCad 9.0 writes
+GENERATOR = "pcbdata"
+BOARD_FILE = "board.kicad_pcb"
+PROJECT_FILE = "board.kicad_pro"
+RULES_FILE = "board.kicad_dru"
+
+# The layer table KiCad 9 writes for a two-layer board (ids changed in 9.0: B.Cu is 2).
+_LAYERS = """\t(layers
+\t\t(0 "F.Cu" signal)
+\t\t(2 "B.Cu" signal)
+\t\t(9 "F.Adhes" user "F.Adhesive")
+\t\t(11 "B.Adhes" user "B.Adhesive")
+\t\t(13 "F.Paste" user)
+\t\t(15 "B.Paste" user)
+\t\t(5 "F.SilkS" user "F.Silkscreen")
+\t\t(7 "B.SilkS" user "B.Silkscreen")
+\t\t(1 "F.Mask" user)
+\t\t(3 "B.Mask" user)
+\t\t(17 "Dwgs.User" user "User.Drawings")
+\t\t(19 "Cmts.User" user "User.Comments")
+\t\t(21 "Eco1.User" user "User.Eco1")
+\t\t(23 "Eco2.User" user "User.Eco2")
+\t\t(25 "Edge.Cuts" user)
+\t\t(27 "Margin" user)
+\t\t(31 "F.CrtYd" user "F.Courtyard")
+\t\t(29 "B.CrtYd" user "B.Courtyard")
+\t\t(35 "F.Fab" user)
+\t\t(33 "B.Fab" user)
+\t)
+"""
+
+
+def mm(value_nm: int) -> str:
+    """Formats nanometres as KiCad writes millimetres: shortest exact decimal."""
+    sign = "-" if value_nm < 0 else ""
+    whole, frac = divmod(abs(int(value_nm)), 1_000_000)
+    if frac == 0:
+        return f"{sign}{whole}"
+    return f"{sign}{whole}.{frac:06d}".rstrip("0")
+
+
+def _quote(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+class _Uuids:
+    """Deterministic UUIDs: the n-th UUID of a board depends only on its seed and n."""
+
+    def __init__(self, seed: str):
+        self._seed = seed.encode()
+        self._count = 0
+
+    def next(self) -> str:
+        self._count += 1
+        digest = hashlib.sha256(self._seed + b"/" + str(self._count).encode()).digest()
+        return str(uuid.UUID(bytes=digest[:16], version=4))
+
+
+def net_numbers(board: Board) -> dict[str, int]:
+    return {name: i for i, name in enumerate(board.net_names, start=1)}
+
+
+def _pad_sexpr(pad: Pad, net_no: int, uid: str) -> list[str]:
+    at, size = "(at 0 0)", f"(size {mm(pad.size)} {mm(pad.size)})"
+    net = f"(net {net_no} {_quote(pad.net)})"
+    side = pad.layer[0]
+    if pad.kind == "thru_round":
+        head = '(pad "1" thru_hole circle'
+        body = [at, size, f"(drill {mm(pad.drill)})", '(layers "*.Cu" "*.Mask")',
+                "(remove_unused_layers no)"]
+    elif pad.kind == "smd_roundrect":
+        head = '(pad "1" smd roundrect'
+        body = [at, size, f'(layers "{side}.Cu" "{side}.Mask" "{side}.Paste")',
+                f"(roundrect_rratio {pad.roundrect_ratio:g})"]
+    else:
+        head = '(pad "1" smd rect'
+        body = [at, size, f'(layers "{side}.Cu" "{side}.Mask" "{side}.Paste")']
+    return [f"\t\t{head}"] + [f"\t\t\t{b}" for b in body + [net, f"(uuid {_quote(uid)})"]] + ["\t\t)"]
+
+
+def _footprint(pad: Pad, ref: str, net_no: int, uuids: _Uuids) -> str:
+    side = pad.layer[0] if pad.kind != "thru_round" else "F"
+    fab = f"{side}.Fab"
+    lines = [
+        '\t(footprint "Pad"',
+        f'\t\t(layer "{side}.Cu")',
+        f"\t\t(uuid {_quote(uuids.next())})",
+        f"\t\t(at {mm(pad.x)} {mm(pad.y)})",
+    ]
+    for prop, value in (("Reference", ref), ("Value", pad.net)):
+        lines += [
+            f"\t\t(property {_quote(prop)} {_quote(value)}",
+            "\t\t\t(at 0 0 0)",
+            f'\t\t\t(layer "{fab}")',
+            "\t\t\t(hide yes)",
+            f"\t\t\t(uuid {_quote(uuids.next())})",
+            "\t\t\t(effects (font (size 1 1) (thickness 0.15)))",
+            "\t\t)",
+        ]
+    lines.append("\t\t(attr through_hole)" if pad.kind == "thru_round" else "\t\t(attr smd)")
+    lines += _pad_sexpr(pad, net_no, uuids.next())
+    lines += ["\t\t(embedded_fonts no)", "\t)"]
+    return "\n".join(lines) + "\n"
+
+
+def board_text(board: Board) -> str:
+    """The `.kicad_pcb` text of a board."""
+    uuids = _Uuids(board.uuid_seed)
+    numbers = net_numbers(board)
+    out = [
+        "(kicad_pcb\n",
+        f"\t(version {KICAD_PCB_VERSION})\n",
+        f'\t(generator "{GENERATOR}")\n',
+        '\t(generator_version "9.0")\n',
+        "\t(general\n\t\t(thickness 1.6)\n\t\t(legacy_teardrops no)\n\t)\n",
+        '\t(paper "A4")\n',
+        _LAYERS,
+        "\t(setup\n\t\t(pad_to_mask_clearance 0)\n"
+        "\t\t(allow_soldermask_bridges_in_footprints no)\n\t\t(tenting front back)\n\t)\n",
+        '\t(net 0 "")\n',
+    ]
+    out += [f"\t(net {no} {_quote(name)})\n" for name, no in numbers.items()]
+    for i, pad in enumerate(board.pads, start=1):
+        out.append(_footprint(pad, f"P{i}", numbers[pad.net], uuids))
+    out.append(
+        "\t(gr_rect\n"
+        f"\t\t(start 0 0)\n\t\t(end {mm(board.width)} {mm(board.height)})\n"
+        "\t\t(stroke\n\t\t\t(width 0.05)\n\t\t\t(type default)\n\t\t)\n"
+        '\t\t(fill no)\n\t\t(layer "Edge.Cuts")\n'
+        f"\t\t(uuid {_quote(uuids.next())})\n\t)\n"
+    )
+    for t in board.tracks:
+        out.append(
+            f"\t(segment\n\t\t(start {mm(t.x1)} {mm(t.y1)})\n\t\t(end {mm(t.x2)} {mm(t.y2)})\n"
+            f"\t\t(width {mm(t.width)})\n\t\t(layer {_quote(t.layer)})\n\t\t(net {numbers[t.net]})\n"
+            f"\t\t(uuid {_quote(uuids.next())})\n\t)\n"
+        )
+    for v in board.vias:
+        out.append(
+            f"\t(via\n\t\t(at {mm(v.x)} {mm(v.y)})\n\t\t(size {mm(v.diameter)})\n"
+            f'\t\t(drill {mm(v.drill)})\n\t\t(layers "F.Cu" "B.Cu")\n\t\t(net {numbers[v.net]})\n'
+            f"\t\t(uuid {_quote(uuids.next())})\n\t)\n"
+        )
+    out.append("\t(embedded_fonts no)\n)\n")
+    return "".join(out)
+
+
+def project_text(rules: Rules, filename: str = PROJECT_FILE) -> str:
+    """The `.kicad_pro` JSON: design rules and the Default netclass; KiCad fills the rest."""
+    as_mm = lambda nm: float(mm(nm))  # noqa: E731
+    project = {
+        "board": {
+            "design_settings": {
+                "rules": {
+                    "min_clearance": 0.0,
+                    "min_copper_edge_clearance": as_mm(rules.edge_clearance),
+                    "min_track_width": as_mm(rules.track_width),
+                    "min_via_diameter": min(0.5, as_mm(rules.via_diameter)),
+                    "min_through_hole_diameter": min(0.3, as_mm(rules.via_drill)),
+                },
+            },
+        },
+        "meta": {"filename": filename, "version": 3},
+        "net_settings": {
+            "classes": [
+                {
+                    "name": "Default",
+                    "clearance": as_mm(rules.clearance),
+                    "track_width": as_mm(rules.track_width),
+                    "via_diameter": as_mm(rules.via_diameter),
+                    "via_drill": as_mm(rules.via_drill),
+                    "priority": 2147483647,
+                }
+            ],
+            "meta": {"version": 4},
+        },
+    }
+    return json.dumps(project, indent=2, sort_keys=True) + "\n"
+
+
+def custom_rules_text(rules: Rules) -> str | None:
+    """The `.kicad_dru` custom rules, or None when the board needs none.
+
+    The one-layer routing of D1 is a DRC rule, not a convention, so that any router's output
+    that uses the other copper layer (tracks or vias) is flagged by KiCad itself.
+    """
+    if rules.single_layer is None:
+        return None
+    other = "B.Cu" if rules.single_layer == "F.Cu" else "F.Cu"
+    return (
+        "(version 1)\n"
+        '(rule "single_layer_routing"\n'
+        f'\t(layer "{other}")\n'
+        "\t(constraint disallow track via))\n"
+    )
+
+
+def board_files(board: Board) -> dict[str, str]:
+    """File name -> text for every file of one board directory."""
+    files = {BOARD_FILE: board_text(board), PROJECT_FILE: project_text(board.rules)}
+    dru = custom_rules_text(board.rules)
+    if dru is not None:
+        files[RULES_FILE] = dru
+    return files

@@ -1,0 +1,91 @@
+"""Loads the versioned generator presets of `generators/` (installed as `pcbdata._preset_files`)."""
+from __future__ import annotations
+
+import difflib
+import hashlib
+import json
+import tomllib
+from dataclasses import dataclass
+from importlib import resources
+
+from pcbdata.errors import UserError
+from pcbdata.generators.d1 import D1Params
+from pcbdata.generators.d2 import D2Params
+
+
+def _load(name: str) -> dict:
+    with resources.files("pcbdata._preset_files").joinpath(name).open("rb") as handle:
+        return tomllib.load(handle)
+
+
+@dataclass(frozen=True)
+class D1Preset:
+    version: str
+    seed: int
+    grid_sizes: tuple[int, ...]
+    n_nets: int
+    placement: str
+    connector_version: str
+    splits: dict[str, int]
+
+
+def d1_preset() -> D1Preset:
+    data = _load("d1.toml")
+    return D1Preset(version=data["version"], seed=data["seed"], grid_sizes=tuple(data["grid_sizes"]),
+                    n_nets=data["n_nets"], placement=data["placement"],
+                    connector_version=data["connector_version"], splits=dict(data["splits"]))
+
+
+@dataclass(frozen=True)
+class D2Level:
+    name: str
+    rank: int
+    description: str
+    params: D2Params
+    version: str
+    seed: int
+    splits: dict[str, int]
+    overrides: dict
+
+    @property
+    def config_name(self) -> str:
+        """`d2` for the benchmark level, `d2-<level>` otherwise; overrides add a short hash."""
+        base = "d2" if self.name == "default" else f"d2-{self.name}"
+        if not self.overrides:
+            return base
+        digest = hashlib.sha256(json.dumps(self.params.as_dict(), sort_keys=True).encode()).hexdigest()
+        return f"{base}-custom-{digest[:8]}"
+
+
+def d2_levels() -> dict[str, dict]:
+    return dict(_load("d2_levels.toml")["levels"])
+
+
+def d2_level(name: str, overrides: dict | None = None) -> D2Level:
+    data = _load("d2_levels.toml")
+    levels = data["levels"]
+    if name not in levels:
+        close = difflib.get_close_matches(name, list(levels), n=1, cutoff=0.3)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise UserError(f"unknown D2 level {name!r}{hint} (levels: {', '.join(sorted(levels, key=lambda n: levels[n]['rank']))})")
+    spec = {k: v for k, v in levels[name].items() if k not in ("rank", "description")}
+    where = f"generators/d2_levels.toml level {name!r}"
+    D2Params.from_dict(spec, where)  # the preset alone must be valid
+    merged = {**spec, **(overrides or {})}
+    params = D2Params.from_dict(merged, "--set" if overrides else where)
+    return D2Level(name=name, rank=levels[name]["rank"], description=levels[name]["description"],
+                   params=params, version=data["version"], seed=data["seed"],
+                   splits=dict(data["splits"]), overrides=dict(overrides or {}))
+
+
+def parse_override(text: str) -> tuple[str, object]:
+    """`key=value` with a TOML value: numbers, [lists] and {inline = tables}."""
+    key, sep, value = text.partition("=")
+    key = key.strip()
+    if not sep or not key or not value.strip():
+        raise UserError(f"--set {text!r}: expected key=value, e.g. --set min_pad_spacing_mm=4.2")
+    try:
+        return key, tomllib.loads(f"v = {value.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        raise UserError(f"--set {text!r}: {value.strip()!r} is not a number, [list] or "
+                        f"{{table}} (TOML syntax)") from None

@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Everything a fresh machine needs: KiCad 9.0.8 (bookworm-backports), a venv made from the
+# system Python (which is the one that can import pcbnew) and the package with its test extras.
+# Idempotent: a second run only checks.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+bash scripts/install-kicad.sh
+
+if ! /usr/bin/python3 -c "import ensurepip" 2>/dev/null; then
+    sudo_cmd=""; [ "$(id -u)" = 0 ] || sudo_cmd="sudo"
+    DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq python3-venv >/dev/null
+fi
+if [ ! -x .venv/bin/python ]; then
+    /usr/bin/python3 -m venv --system-site-packages .venv
+fi
+.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test]"
+.venv/bin/python -c "import pcbnew, pcbdata; print('pcbdata', pcbdata.__version__, 'with KiCad', pcbnew.Version())"
