@@ -1,1 +1,55 @@
-def main(argv=None):\n    raise SystemExit(0)
+"""The `pcbdata` command: one verb per job, one thin module per verb.
+
+A verb module in this package defines `VERB` (its name), `HELP` (one line) and
+`register(parser)` which adds its arguments and `parser.set_defaults(run=function)`;
+`run(args)` returns the exit code. `build` has one module per family (`build_<family>.py`).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+
+from pcbdata import __version__
+from pcbdata.errors import UserError
+
+
+def _verb_modules(prefix: str = ""):
+    names = sorted(m.name for m in pkgutil.iter_modules(__path__))
+    for name in names:
+        if name.startswith("_") or (prefix and not name.startswith(prefix)):
+            continue
+        if not prefix and name.startswith("build_"):
+            continue
+        module = importlib.import_module(f"{__name__}.{name}")
+        if hasattr(module, "register"):
+            yield module
+
+
+def make_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="pcbdata", description="Board sets, curation and scoring for PCBWorld-Bench.")
+    parser.add_argument("--version", action="version", version=f"pcbdata {__version__}")
+    verbs = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
+    for module in _verb_modules():
+        sub = verbs.add_parser(module.VERB, help=module.HELP, description=module.HELP)
+        module.register(sub)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = make_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.run(args) or 0)
+    except UserError as exc:
+        print(f"pcbdata: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("pcbdata: interrupted; run the same command again to resume", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

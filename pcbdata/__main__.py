@@ -1,0 +1,5 @@
+import sys
+
+from pcbdata.cli import main
+
+sys.exit(main())
