@@ -48,6 +48,21 @@ class Track:
 
 
 @dataclass(frozen=True)
+class Arc:
+    """A track arc through three points (KiCad stores start, mid and end)."""
+
+    x1: int
+    y1: int
+    xm: int
+    ym: int
+    x2: int
+    y2: int
+    width: int
+    net: str
+    layer: CopperLayer = "F.Cu"
+
+
+@dataclass(frozen=True)
 class Via:
     x: int
     y: int
@@ -74,6 +89,7 @@ class Board:
     pads: list[Pad]
     tracks: list[Track] = field(default_factory=list)
     vias: list[Via] = field(default_factory=list)
+    arcs: list[Arc] = field(default_factory=list)
     uuid_seed: str = ""  # makes item UUIDs deterministic per board
 
     @property

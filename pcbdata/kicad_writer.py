@@ -148,6 +148,13 @@ def board_text(board: Board) -> str:
             f"\t\t(width {mm(t.width)})\n\t\t(layer {_quote(t.layer)})\n\t\t(net {numbers[t.net]})\n"
             f"\t\t(uuid {_quote(uuids.next())})\n\t)\n"
         )
+    for a in board.arcs:
+        out.append(
+            f"\t(arc\n\t\t(start {mm(a.x1)} {mm(a.y1)})\n\t\t(mid {mm(a.xm)} {mm(a.ym)})\n"
+            f"\t\t(end {mm(a.x2)} {mm(a.y2)})\n\t\t(width {mm(a.width)})\n"
+            f"\t\t(layer {_quote(a.layer)})\n\t\t(net {numbers[a.net]})\n"
+            f"\t\t(uuid {_quote(uuids.next())})\n\t)\n"
+        )
     for v in board.vias:
         out.append(
             f"\t(via\n\t\t(at {mm(v.x)} {mm(v.y)})\n\t\t(size {mm(v.diameter)})\n"

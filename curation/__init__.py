@@ -1,0 +1,1 @@
+"""The versioned D3 curation recipe (installed as `pcbdata._recipe_files`)."""
