@@ -36,8 +36,19 @@ def _resolve(ref: str) -> Callable:
     return getattr(importlib.import_module(module), name)
 
 
+def _silence_output() -> None:
+    """KiCad/wx write debug chatter to the process's stdout/stderr; send it to a log file
+    (PCBDATA_ENGINE_LOG) or nowhere. Failures still reach the parent as recorded reasons."""
+    target = os.environ.get("PCBDATA_ENGINE_LOG") or os.devnull
+    fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_APPEND, 0o644)
+    os.dup2(fd, 1)
+    os.dup2(fd, 2)
+    os.close(fd)
+
+
 def _worker_main(conn, env: dict[str, str]) -> None:
     os.environ.update(env)
+    _silence_output()
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when workers stop
     while True:
         try:

@@ -1,0 +1,55 @@
+"""`pcbdata build d1`: synthetic grid boards (SPEC section 1)."""
+from __future__ import annotations
+
+from pcbdata.cli import _build_options as common
+from pcbdata.errors import UserError
+
+FAMILY = "d1"
+HELP = "D1 grid boards: 5 two-pin nets, one routing layer, grid sizes 10..500"
+
+
+def register(parser) -> None:
+    parser.add_argument("--grid", default="all", metavar="G",
+                        help="grid size(s): 10, 50, 100, 200, 500, any integer >= 4, a comma "
+                             "list, or 'all' (default)")
+    parser.add_argument("--placement", default=None, choices=("uniform", "random-walk"),
+                        help="pad placement (default: the preset's, uniform); random-walk boards "
+                             "also get reference.kicad_pcb, a DRC-clean routing")
+    common.add_common(parser)
+    parser.set_defaults(run=run)
+
+
+def parse_grids(text: str, preset_grids) -> list[int]:
+    if text.strip() == "all":
+        return list(preset_grids)
+    grids = []
+    for part in text.split(","):
+        try:
+            grids.append(int(part))
+        except ValueError:
+            raise UserError(f"--grid {text!r}: {part.strip()!r} is not an integer grid size or 'all'") from None
+    return grids
+
+
+def run(args) -> int:
+    from pcbdata.generators import D1Generator, D1Params
+    from pcbdata.presets import d1_preset
+    from pcbdata.synthetic_build import ConfigInfo, SplitJob
+
+    preset = d1_preset()
+    sizes = common.split_sizes(args, preset.splits)
+    placement = args.placement or preset.placement
+    seed = preset.seed if args.seed is None else args.seed
+    jobs, configs = [], {}
+    for grid in parse_grids(args.grid, preset.grid_sizes):
+        params = D1Params(grid=grid, placement=placement, n_nets=preset.n_nets)
+        config = f"d1-g{grid}" + ("" if placement == "uniform" else f"-{placement}")
+        generator = D1Generator(params)
+        configs[config] = ConfigInfo(family="d1", set_version=preset.version, seed=seed,
+                                     parameters=params.as_dict(),
+                                     connector_version=preset.connector_version,
+                                     extra={"connector_version": preset.connector_version})
+        for split, count in sizes.items():
+            jobs.append(SplitJob(config, split, count, generator,
+                                 common.checked_indices(args, split, count)))
+    return common.run_build(args, jobs, configs)

@@ -1,0 +1,30 @@
+"""`pcbdata verify DIR`: re-check a built board set against its manifest."""
+from __future__ import annotations
+
+VERB = "verify"
+HELP = "check every board (and published shard) of a built set against its manifest"
+
+
+def register(parser) -> None:
+    parser.add_argument("dir", metavar="DIR", help="folder of a built board set")
+    parser.add_argument("--max-lines", type=int, default=50, metavar="N",
+                        help="problems printed at most (default 50; all are counted)")
+    parser.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from pcbdata.manifest import read_manifest
+    from pcbdata.verify import verify_set
+
+    problems = verify_set(args.dir)
+    manifest = read_manifest(args.dir)
+    boards = sum(len(s["boards"]) for c in manifest["configs"].values() for s in c["splits"].values())
+    for line in problems[: args.max_lines]:
+        print(line)
+    if len(problems) > args.max_lines:
+        print(f"... and {len(problems) - args.max_lines} more")
+    configs = ", ".join(sorted(manifest["configs"]))
+    status = "OK" if not problems else f"{len(problems)} problem(s)"
+    print(f"verify {args.dir}: {boards} boards in {configs}: {status}")
+    return 0 if not problems else 1
+

@@ -1,0 +1,164 @@
+"""Scoring of routed boards against instances: one board (`score`) or many (`Evaluator`).
+
+KiCad runs in engine worker processes (`pcbdata.engine.pool.EnginePool`); this module only
+moves files and plain data, and computes the metrics with `pcbdata.evaluator.metrics`.
+"""
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Iterable, Iterator
+
+from pcbdata.engine.pool import EnginePool
+from pcbdata.errors import UserError
+from pcbdata.evaluator.integrity import integrity_problems
+from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
+
+#: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
+EVALUATOR_VERSION = "1.0.0"
+MEASURE = "pcbdata.engine.scoring:measure"
+INSTANCE_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
+
+
+def sha256_file(path: str | Path) -> str:
+    digest = hashlib.sha256()
+    with open(path, "rb") as handle:
+        for block in iter(lambda: handle.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def instance_dir(instance: str | Path) -> Path:
+    """An instance is a board directory (`board.kicad_pcb` + `board.kicad_pro`), or the path of
+    its `board.kicad_pcb`."""
+    path = Path(instance)
+    if path.is_file():
+        path = path.parent
+    if not (path / "board.kicad_pcb").is_file() or not (path / "board.kicad_pro").is_file():
+        raise UserError(f"{instance}: not an instance directory (needs board.kicad_pcb and "
+                        f"board.kicad_pro)")
+    return path
+
+
+def instance_hash(directory: str | Path) -> str:
+    """Hash of the instance's files (board, project, custom rules)."""
+    digest = hashlib.sha256()
+    for name in INSTANCE_FILES:
+        path = Path(directory) / name
+        digest.update(name.encode() + b"\0")
+        digest.update(sha256_file(path).encode() if path.is_file() else b"-")
+    return digest.hexdigest()
+
+
+def precheck(path: str | Path) -> str | None:
+    """A reason why `path` cannot be a `.kicad_pcb` file, found without KiCad; None if it may be."""
+    path = Path(path)
+    if not path.is_file():
+        return "missing file"
+    if path.stat().st_size == 0:
+        return "empty file"
+    with open(path, "rb") as handle:
+        head = handle.read(4096)
+    if b"\0" in head:
+        return "not a .kicad_pcb file (binary data)"
+    if not head.lstrip().startswith(b"(kicad_pcb"):
+        return "not a .kicad_pcb file (does not start with '(kicad_pcb')"
+    return None
+
+
+def failed_record(status: str, reason: str) -> dict:
+    return {"status": status, "reason": reason, "cp": 0, "rout": 0.0, "pot": None,
+            "drv": None, "unconnected": None, "wl": None, "via": None, "penalty": None,
+            "phi": None, "phi_bare": None, "net_count": None, "drv_by_type": {}}
+
+
+def judge(bare: dict, routed: dict | None, error: str = "",
+          weights: Weights = DEFAULT_WEIGHTS) -> dict:
+    """The record of one rollout from the measurements of its instance (`bare`) and of the
+    routed board (`routed`, None when the engine failed with `error`)."""
+    if routed is None:
+        return failed_record("parse_fail", f"engine failure: {error}")
+    if not routed.get("loaded"):
+        return failed_record("parse_fail", routed.get("reason", "KiCad could not load the board"))
+    problems = integrity_problems(bare["fingerprint"], routed["fingerprint"])
+    if problems:
+        return failed_record("invalid", "; ".join(problems))
+    return {"status": "ok", "reason": "", **rollout_metrics(bare, routed, weights)}
+
+
+class Evaluator:
+    """Scores routed boards with a pool of KiCad workers; reuse one for many calls.
+
+    >>> with Evaluator(workers=2) as ev:
+    ...     record = ev.score("set/d2/test/d2-test-00000", "runs/d2-test-00000/0.kicad_pcb")
+    """
+
+    def __init__(self, workers: int = 1, weights: Weights = DEFAULT_WEIGHTS,
+                 pool: EnginePool | None = None, task_timeout: float = 300.0):
+        self.weights = weights
+        self._own_pool = pool is None
+        self.pool = pool or EnginePool(workers=workers, task_timeout=task_timeout)
+        self._bare: dict[str, dict] = {}
+
+    def __enter__(self) -> "Evaluator":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def close(self) -> None:
+        if self._own_pool:
+            self.pool.close()
+
+    def bare_measurements(self, directories: Iterable[Path]) -> dict[str, dict]:
+        """Measurements of the instances' own boards, keyed by instance hash (memoised)."""
+        todo = {}
+        for directory in directories:
+            key = instance_hash(directory)
+            if key not in self._bare and key not in todo:
+                todo[key] = Path(directory)
+        keys = list(todo)
+        jobs = [(str(todo[k] / "board.kicad_pcb"), str(todo[k])) for k in keys]
+        for outcome in self.pool.map(MEASURE, jobs):
+            directory = todo[keys[outcome.index]]
+            if not outcome.ok or not outcome.value.get("loaded"):
+                reason = outcome.error if not outcome.ok else outcome.value.get("reason")
+                raise UserError(f"{directory}: the instance itself cannot be measured ({reason})")
+            self._bare[keys[outcome.index]] = outcome.value
+        return self._bare
+
+    def score_many(self, pairs: list[tuple[Path, Path]]) -> Iterator[tuple[int, dict]]:
+        """Yields (index, record) for each (instance directory, routed file) pair, as scored."""
+        pairs = [(instance_dir(i), Path(r)) for i, r in pairs]
+        bare = self.bare_measurements(d for d, _ in pairs)
+        keys = [instance_hash(d) for d, _ in pairs]
+        jobs, job_index = [], []
+        for index, (directory, routed) in enumerate(pairs):
+            reason = precheck(routed)
+            if reason is not None:
+                yield index, failed_record("parse_fail", reason)
+                continue
+            jobs.append((str(routed), str(directory)))
+            job_index.append(index)
+        for outcome in self.pool.map(MEASURE, jobs):
+            index = job_index[outcome.index]
+            record = judge(bare[keys[index]], outcome.value if outcome.ok else None,
+                           outcome.error, self.weights)
+            record["score_seconds"] = outcome.seconds
+            yield index, record
+
+    def score(self, instance: str | Path, routed: str | Path) -> dict:
+        """The record of one routed board: status (ok / invalid / parse_fail), reason, cp, pot,
+        rout, drv, unconnected, wl, via, penalty, phi, phi_bare, net_count, drv_by_type."""
+        return next(iter(self.score_many([(Path(instance), Path(routed))])))[1]
+
+
+def score(instance: str | Path, routed: str | Path, weights: Weights = DEFAULT_WEIGHTS,
+          pool: EnginePool | None = None) -> dict:
+    """Scores one routed `.kicad_pcb` against an instance directory (see `Evaluator.score`).
+
+    Starts a KiCad worker for the call unless `pool` is given; for many calls keep an
+    `Evaluator` (or a pool) open instead.
+    """
+    with Evaluator(weights=weights, pool=pool) as evaluator:
+        return evaluator.score(instance, routed)

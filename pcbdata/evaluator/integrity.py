@@ -1,0 +1,33 @@
+"""Integrity check: a submission may only add or change tracks, arcs and vias.
+
+Compares the fingerprint of the routed board with the instance's (see
+`pcbdata.engine.scoring.fingerprint`): nets, footprints, pads (position, shape, size, drill,
+layers, net), zones (outline, layers, net, priority), board outline (Edge.Cuts), drawings on
+copper layers and the layer set. Any difference makes the rollout invalid, with the reason.
+"""
+from __future__ import annotations
+
+CATEGORIES = ("nets", "footprints", "pads", "zones", "outline", "copper_drawings", "rules")
+_LABELS = {"nets": "nets", "footprints": "footprints", "pads": "pads", "zones": "zones",
+           "outline": "board outline", "copper_drawings": "drawings on copper layers",
+           "rules": "layer stack"}
+
+
+def integrity_problems(bare: dict[str, list[str]], routed: dict[str, list[str]]) -> list[str]:
+    """One line per changed category, naming the first difference; empty when intact."""
+    problems = []
+    for category in CATEGORIES:
+        before, after = list(bare.get(category, [])), list(routed.get(category, []))
+        if before == after:
+            continue
+        removed = sorted(set(before) - set(after))
+        added = sorted(set(after) - set(before))
+        detail = []
+        if removed:
+            detail.append(f"{len(removed)} missing or changed, e.g. {removed[0].split('|')[0]!r}")
+        if added:
+            detail.append(f"{len(added)} added or changed, e.g. {added[0].split('|')[0]!r}")
+        if not detail:
+            detail.append(f"count {len(before)} -> {len(after)}")
+        problems.append(f"{_LABELS[category]} changed ({'; '.join(detail)})")
+    return problems

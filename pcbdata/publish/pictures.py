@@ -1,0 +1,155 @@
+"""Pictures for the dataset card: pad-count histograms (plain SVG written here) and board
+previews (rendered from the boards with `kicad-cli pcb export svg`)."""
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+import tempfile
+from html import escape
+from pathlib import Path
+
+# Colours of the D3 tiers, and of everything else.
+_TIER_COLOURS = {"d3-a": "#4c78a8", "d3-b": "#f58518", "d3-c": "#54a24b"}
+_BAR = "#4c78a8"
+
+
+def _bins(values: list[int], log: bool) -> list[tuple[float, float]]:
+    lo, hi = min(values), max(values)
+    if hi == lo:
+        return [(lo - 0.5, hi + 0.5)]
+    if log:
+        lo_l, hi_l = math.log10(max(lo, 1)), math.log10(hi + 1)
+        n = max(8, min(40, int((hi_l - lo_l) * 12)))
+        edges = [10 ** (lo_l + (hi_l - lo_l) * k / n) for k in range(n + 1)]
+    else:
+        span = hi - lo + 1
+        width = max(1, math.ceil(span / 40))
+        n = math.ceil(span / width)
+        edges = [lo - 0.5 + width * k for k in range(n + 1)]
+    return list(zip(edges, edges[1:]))
+
+
+def histogram_svg(series: dict[str, list[int]], title: str, boundaries: list[tuple[float, str]] = (),
+                  log: bool | None = None) -> str:
+    """A stacked histogram of pad counts, one colour per series (e.g. per D3 tier).
+
+    `boundaries` are (x, label) vertical lines, e.g. the tier limits."""
+    values = [v for vals in series.values() for v in vals]
+    if not values:
+        values = [0]
+    if log is None:
+        log = max(values) > 200 and max(values) > 20 * max(1, min(values))
+    bins = _bins(values, log)
+    counts = {name: [0] * len(bins) for name in series}
+    for name, vals in series.items():
+        for v in vals:
+            for k, (a, b) in enumerate(bins):
+                if a <= v < b or (k == len(bins) - 1 and v == b):
+                    counts[name][k] += 1
+                    break
+    totals = [sum(counts[n][k] for n in series) for k in range(len(bins))]
+    width, height, left, right, top, bottom = 640, 300, 56, 16, 36, 48
+    plot_w, plot_h = width - left - right, height - top - bottom
+    x_lo, x_hi = bins[0][0], bins[-1][1]
+
+    def x_of(v: float) -> float:
+        if log:
+            return left + plot_w * (math.log10(max(v, 1e-9)) - math.log10(x_lo)) / (
+                math.log10(x_hi) - math.log10(x_lo))
+        return left + plot_w * (v - x_lo) / (x_hi - x_lo)
+
+    y_max = max(totals) or 1
+
+    def y_of(c: float) -> float:
+        return top + plot_h * (1 - c / y_max)
+
+    out = [f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
+           f'viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="11">',
+           f'<rect width="{width}" height="{height}" fill="white"/>',
+           f'<text x="{width / 2}" y="20" text-anchor="middle" font-size="14">{escape(title)}</text>']
+    for k, (a, b) in enumerate(bins):
+        base = 0
+        for name in series:
+            c = counts[name][k]
+            if not c:
+                continue
+            colour = _TIER_COLOURS.get(name, _BAR)
+            x0, x1 = x_of(a), x_of(b)
+            out.append(f'<rect x="{x0:.2f}" y="{y_of(base + c):.2f}" width="{max(x1 - x0 - 1, 0.5):.2f}" '
+                       f'height="{y_of(base) - y_of(base + c):.2f}" fill="{colour}">'
+                       f'<title>{escape(name)}: {c} boards with {math.ceil(a)}-{math.floor(b)} pads</title></rect>')
+            base += c
+    # axes and ticks
+    out.append(f'<line x1="{left}" y1="{top + plot_h}" x2="{left + plot_w}" y2="{top + plot_h}" stroke="black"/>')
+    out.append(f'<line x1="{left}" y1="{top}" x2="{left}" y2="{top + plot_h}" stroke="black"/>')
+    for frac in (0, 0.5, 1):
+        c = round(y_max * frac)
+        out.append(f'<text x="{left - 6}" y="{y_of(c) + 4:.1f}" text-anchor="end">{c}</text>')
+    if log:
+        ticks = [t for e in range(0, 6) for t in (10 ** e, 2 * 10 ** e, 5 * 10 ** e) if x_lo <= t <= x_hi]
+    else:
+        step = max(1, math.ceil((x_hi - x_lo) / 8))
+        ticks = list(range(math.ceil(x_lo), math.floor(x_hi) + 1, step))
+    for t in ticks:
+        out.append(f'<text x="{x_of(t):.1f}" y="{top + plot_h + 16}" text-anchor="middle">{t}</text>')
+    out.append(f'<text x="{left + plot_w / 2}" y="{height - 10}" text-anchor="middle">'
+               f'pads (terminal pads per board{", log scale" if log else ""})</text>')
+    out.append(f'<text x="14" y="{top + plot_h / 2}" text-anchor="middle" '
+               f'transform="rotate(-90 14 {top + plot_h / 2})">boards</text>')
+    for x, label in boundaries:
+        if x_lo <= x <= x_hi:
+            out.append(f'<line x1="{x_of(x):.1f}" y1="{top}" x2="{x_of(x):.1f}" y2="{top + plot_h}" '
+                       f'stroke="#d62728" stroke-dasharray="4 3"/>')
+            out.append(f'<text x="{x_of(x) + 3:.1f}" y="{top + 10}" fill="#d62728">{escape(label)}</text>')
+    if len(series) > 1:
+        for k, name in enumerate(series):
+            y = top + 4 + 14 * k
+            out.append(f'<rect x="{left + plot_w - 90}" y="{y}" width="10" height="10" '
+                       f'fill="{_TIER_COLOURS.get(name, _BAR)}"/>')
+            out.append(f'<text x="{left + plot_w - 76}" y="{y + 9}">{escape(name)} ({len(series[name])})</text>')
+    out.append("</svg>")
+    return "\n".join(out) + "\n"
+
+
+def render_preview(board_path: Path, out_path: Path, timeout: float = 120) -> str | None:
+    """Renders a board's copper and outline as SVG with kicad-cli; returns None or the reason
+    it could not (no kicad-cli, KiCad failed): previews are illustrations, never required."""
+    cli = shutil.which("kicad-cli")
+    if cli is None:
+        return "kicad-cli not found on PATH"
+    with tempfile.TemporaryDirectory(prefix="pcbdata-preview-") as tmp:
+        # A copy, so that KiCad never touches the published tree.
+        board = Path(tmp) / "board.kicad_pcb"
+        shutil.copyfile(board_path, board)
+        project = board_path.with_suffix(".kicad_pro")
+        if project.is_file():
+            shutil.copyfile(project, board.with_suffix(".kicad_pro"))
+        svg = Path(tmp) / "preview.svg"
+        try:
+            subprocess.run([cli, "pcb", "export", "svg", "--layers", "F.Cu,B.Cu,Edge.Cuts",
+                            "--mode-single", "--exclude-drawing-sheet", "--page-size-mode", "2",
+                            "--output", str(svg), str(board)],
+                           check=True, capture_output=True, timeout=timeout)
+        except (subprocess.CalledProcessError, subprocess.TimeoutExpired, OSError) as exc:
+            return f"kicad-cli failed: {exc}"
+        if not svg.is_file():
+            return "kicad-cli wrote no SVG"
+        out_path.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(svg, out_path)
+    return None
+
+
+def pick_previews(boards: list[tuple[str, int]], count: int) -> list[str]:
+    """`count` board ids spread over the pad-count range: smallest, median, largest, ..."""
+    ordered = sorted(boards, key=lambda b: (b[1], b[0]))
+    if count <= 0 or not ordered:
+        return []
+    if count == 1:
+        return [ordered[len(ordered) // 2][0]]
+    picks = []
+    for k in range(count):
+        board_id = ordered[round(k * (len(ordered) - 1) / (count - 1))][0]
+        if board_id not in picks:
+            picks.append(board_id)
+    return picks

@@ -1,0 +1,312 @@
+"""Builds synthetic board sets (D1, D2) into a folder: boards, arrays, KiCad checks, manifest.
+
+Resumable: board folders are written atomically and skipped when their bytes are already
+right; KiCad checks are logged per board hash in `DIR/.pcbdata/checks.jsonl`; the manifest is
+written last, so an interrupted build is just run again.
+"""
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import sys
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+from multiprocessing import get_context
+from pathlib import Path
+from typing import Callable
+
+from pcbdata import __version__
+from pcbdata.connector import connector_arrays, npz_bytes
+from pcbdata.engine import EnginePool, parse_drc_report
+from pcbdata.engine.drc_report import DrcReport
+from pcbdata.errors import UserError, ValidationError
+from pcbdata.fsutil import remove_stale_temps, sha256_bytes, write_atomic, write_dir_atomic
+from pcbdata.kicad_writer import BOARD_FILE, board_files
+from pcbdata.manifest import FORMAT, MANIFEST_NAME, merge_configs, write_manifest
+from pcbdata.rng import SEED_SCHEME
+
+STATE_DIR = ".pcbdata"
+REFERENCE_FILE = "reference.kicad_pcb"
+_CHUNK = 128
+
+
+@dataclass
+class SplitJob:
+    """One split of one config: which boards to make and which of them to check in KiCad."""
+
+    config: str
+    split: str
+    count: int
+    generator: object  # D1Generator or D2Generator (picklable)
+    check_indices: list[int]
+
+
+@dataclass
+class ConfigInfo:
+    family: str
+    set_version: str
+    seed: int
+    parameters: dict
+    extra: dict = field(default_factory=dict)
+    connector_version: str | None = None  # D1: write `<split>.npz`
+
+
+@dataclass
+class BuildSummary:
+    boards: int = 0
+    written: int = 0
+    unchanged: int = 0
+    checked: int = 0
+    check_skipped: int = 0
+    failures: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+
+    def line(self) -> str:
+        return (f"{self.boards} boards ({self.written} written, {self.unchanged} unchanged), "
+                f"{self.checked} checked in KiCad ({self.check_skipped} already checked), "
+                f"{len(self.failures)} failures, {self.seconds:.1f} s")
+
+
+def check_sample(count: int, sample: int | None) -> list[int]:
+    """Indices to check in KiCad: all of them (`sample` None) or `sample` evenly spread ones."""
+    if sample is None or sample >= count:
+        return list(range(count))
+    if sample <= 0:
+        return []
+    return sorted({(k * count) // sample for k in range(sample)})
+
+
+def _generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> list[dict]:
+    """Worker: generates boards, writes their folders if their bytes differ; returns entries."""
+    out = []
+    split_dir = Path(root) / job.config / job.split
+    for index in indices:
+        instance = job.generator.generate(seed, job.split, index)
+        files = board_files(instance.board)
+        if instance.reference is not None:
+            files[REFERENCE_FILE] = board_files(instance.reference)[BOARD_FILE]
+        encoded = {name: text.encode("utf-8") for name, text in files.items()}
+        board_dir = split_dir / instance.board_id
+        written = not _same_folder(board_dir, encoded)
+        if written:
+            write_dir_atomic(board_dir, encoded)
+        out.append({
+            "index": index,
+            "board_id": instance.board_id,
+            "written": written,
+            "files": {name: sha256_bytes(data) for name, data in sorted(encoded.items())},
+            "facts": instance.facts(job.generator.routing_layers),
+            "missing_connections": instance.board.missing_connections,
+            "cells": instance.cells,
+        })
+    return out
+
+
+def _same_folder(folder: Path, files: dict[str, bytes]) -> bool:
+    try:
+        if sorted(os.listdir(folder)) != sorted(files):
+            return False
+        return all((folder / name).read_bytes() == data for name, data in files.items())
+    except (FileNotFoundError, NotADirectoryError):
+        return False
+
+
+class _Progress:
+    def __init__(self, label: str, total: int, stream=sys.stderr):
+        self.label, self.total, self.stream = label, total, stream
+        self.done, self.start, self.last = 0, time.perf_counter(), 0.0
+
+    def advance(self, n: int = 1) -> None:
+        self.done += n
+        now = time.perf_counter()
+        if now - self.last >= 2.0 or self.done == self.total:
+            self.last = now
+            print(f"  {self.label}: {self.done}/{self.total} ({now - self.start:.1f} s)",
+                  file=self.stream, flush=True)
+
+
+def _prepare_root(root: Path) -> None:
+    if root.exists() and not root.is_dir():
+        raise UserError(f"{root}: exists and is not a folder")
+    if root.is_dir() and any(root.iterdir()):
+        if not ((root / MANIFEST_NAME).exists() or (root / STATE_DIR).exists()):
+            raise UserError(f"{root}: folder is not empty and is not a pcbdata board set; "
+                            f"choose an empty or new --out folder")
+    (root / STATE_DIR).mkdir(parents=True, exist_ok=True)
+    remove_stale_temps(root)
+
+
+class _CheckLog:
+    """Boards already checked in KiCad, by relative path and board-file sha256."""
+
+    def __init__(self, root: Path):
+        self.path = root / STATE_DIR / "checks.jsonl"
+        self.done: set[tuple[str, str]] = set()
+        if self.path.exists():
+            for line in self.path.read_text(encoding="utf-8").splitlines():
+                try:
+                    entry = json.loads(line)
+                    self.done.add((entry["path"], entry["sha256"]))
+                except (json.JSONDecodeError, KeyError):
+                    continue  # a line cut short by a kill; that board is checked again
+        self._handle = open(self.path, "a", encoding="utf-8")
+
+    def add(self, rel: str, sha: str) -> None:
+        self._handle.write(json.dumps({"path": rel, "sha256": sha}) + "\n")
+        self._handle.flush()
+        self.done.add((rel, sha))
+
+    def close(self) -> None:
+        self._handle.close()
+
+
+def check_problem(report: DrcReport, expected_unconnected: int) -> str | None:
+    """Why a generated board fails its check, or None: only the expected unconnected items."""
+    other = {k: v for k, v in report.counts_by_type(include_unconnected=False).items()}
+    unconnected = len([v for v in report.unconnected if v.severity != "excluded"])
+    if other or unconnected != expected_unconnected:
+        first = next((v for v in report.violations if v.section != "unconnected"), None)
+        detail = f"; first: [{first.type}] {first.message} at {first.items[0].description}" \
+            if first and first.items else ""
+        return (f"DRC found {other or 'no other violations'} and {unconnected} unconnected "
+                f"items (expected {expected_unconnected}){detail}")
+    return None
+
+
+def build_synthetic(root: str | Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
+                    workers: int | None = None, log: Callable[[str], None] | None = None,
+                    task_timeout: float = 120.0) -> BuildSummary:
+    log = log or (lambda message: print(message, file=sys.stderr, flush=True))
+    root = Path(root)
+    workers = max(1, workers or os.cpu_count() or 1)
+    started = time.perf_counter()
+    _prepare_root(root)
+    summary = BuildSummary()
+    entries: dict[tuple[str, str], list[dict]] = {}
+    context = get_context("spawn")
+    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as executor:
+        for job in jobs:
+            seed = configs[job.config].seed
+            progress = _Progress(f"{job.config}/{job.split} write", job.count)
+            chunks = [list(range(i, min(i + _CHUNK, job.count))) for i in range(0, job.count, _CHUNK)]
+            results: list[dict] = []
+            for chunk in executor.map(_generate_chunk, [str(root)] * len(chunks),
+                                      [job] * len(chunks), [seed] * len(chunks), chunks):
+                results.extend(chunk)
+                progress.advance(len(chunk))
+            _remove_extra_boards(root / job.config / job.split, {r["board_id"] for r in results})
+            entries[(job.config, job.split)] = results
+            summary.boards += len(results)
+            summary.written += sum(r["written"] for r in results)
+            summary.unchanged += sum(not r["written"] for r in results)
+            info = configs[job.config]
+            if info.connector_version is not None:
+                arrays = connector_arrays([r["board_id"] for r in results],
+                                          [r["cells"] for r in results],
+                                          job.generator.params.grid, info.connector_version)
+                write_atomic(root / job.config / f"{job.split}.npz", npz_bytes(arrays))
+    _check_in_kicad(root, jobs, entries, workers, summary, task_timeout)
+    summary.seconds = time.perf_counter() - started
+    if summary.failures:
+        raise ValidationError(
+            f"{len(summary.failures)} board(s) failed the KiCad check; the set is left "
+            f"without a manifest. First failures:\n  " + "\n  ".join(summary.failures[:5]))
+    _write_manifest(root, jobs, configs, entries)
+    summary.seconds = time.perf_counter() - started
+    return summary
+
+
+def _keep_other_splits(root: Path, built: dict[str, dict]) -> None:
+    """Building some splits of a config keeps the splits an earlier build of the same
+    parameters put in the manifest (and on disk)."""
+    if not (root / MANIFEST_NAME).exists():
+        return
+    from pcbdata.manifest import read_manifest
+
+    old_configs = read_manifest(root).get("configs", {})
+    for name, config in built.items():
+        old = old_configs.get(name)
+        same = old and all(old.get(k) == config.get(k)
+                           for k in ("family", "set_version", "seed", "parameters"))
+        if same:
+            for split, data in old["splits"].items():
+                config["splits"].setdefault(split, data)
+        config["splits"] = dict(sorted(config["splits"].items()))
+
+
+def _remove_extra_boards(split_dir: Path, keep: set[str]) -> None:
+    """A rebuild with fewer boards must not leave boards of an earlier build behind."""
+    if split_dir.is_dir():
+        for child in split_dir.iterdir():
+            if child.is_dir() and child.name.startswith("board_") and child.name not in keep:
+                shutil.rmtree(child)
+
+
+def _check_in_kicad(root: Path, jobs: list[SplitJob], entries, workers: int,
+                    summary: BuildSummary, task_timeout: float) -> None:
+    checks = _CheckLog(root)
+    todo = []  # (relative board path, sha, expected unconnected, description)
+    for job in jobs:
+        by_index = {r["index"]: r for r in entries[(job.config, job.split)]}
+        for index in job.check_indices:
+            entry = by_index[index]
+            rel_dir = f"{job.config}/{job.split}/{entry['board_id']}"
+            targets = [(BOARD_FILE, entry["missing_connections"])]
+            if REFERENCE_FILE in entry["files"]:
+                targets.append((REFERENCE_FILE, 0))  # a reference routing connects everything
+            for name, expected in targets:
+                rel = f"{rel_dir}/{name}"
+                if (rel, entry["files"][name]) in checks.done:
+                    summary.check_skipped += 1
+                else:
+                    todo.append((rel, entry["files"][name], expected, job))
+    if not todo:
+        checks.close()
+        return
+    progress = _Progress("KiCad check", len(todo))
+    try:
+        with EnginePool(workers=workers, task_timeout=task_timeout) as pool:
+            args = [(str(root / rel),) for rel, *_ in todo]
+            for outcome in pool.map("pcbdata.engine.kicad:drc", args):
+                rel, sha, expected, job = todo[outcome.index]
+                progress.advance()
+                params = json.dumps(job.generator.params.as_dict(), sort_keys=True)
+                if not outcome.ok:
+                    summary.failures.append(f"{rel}: KiCad could not check it: {outcome.error} "
+                                            f"(parameters {params})")
+                    continue
+                problem = check_problem(DrcReport.from_dict(outcome.value), expected)
+                if problem:
+                    summary.failures.append(f"{rel}: {problem} (parameters {params})")
+                else:
+                    checks.add(rel, sha)
+                    summary.checked += 1
+    finally:
+        checks.close()
+
+
+def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo], entries) -> None:
+    from pcbdata.engine import kicad_version
+
+    built: dict[str, dict] = {}
+    for job in jobs:
+        info = configs[job.config]
+        config = built.setdefault(job.config, {
+            "family": info.family, "set_version": info.set_version, "seed": info.seed,
+            "seed_scheme": SEED_SCHEME, "parameters": info.parameters, **info.extra,
+            "splits": {},
+        })
+        boards = {}
+        for entry in sorted(entries[(job.config, job.split)], key=lambda e: e["board_id"]):
+            boards[entry["board_id"]] = {"files": entry["files"], **entry["facts"]}
+        split = {"count": job.count, "kicad_checked": len(job.check_indices), "boards": boards}
+        if info.connector_version is not None:
+            npz = root / job.config / f"{job.split}.npz"
+            split["arrays"] = {npz.name: sha256_bytes(npz.read_bytes())}
+        config["splits"][job.split] = split
+    _keep_other_splits(root, built)
+    base = {"format": FORMAT, "package_version": __version__, "kicad_version": kicad_version()}
+    manifest = merge_configs(root, base, built)
+    write_manifest(root, manifest)
