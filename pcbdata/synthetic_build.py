@@ -23,7 +23,7 @@ from pcbdata.engine import EnginePool, parse_drc_report
 from pcbdata.engine.drc_report import DrcReport
 from pcbdata.errors import UserError, ValidationError
 from pcbdata.fsutil import remove_stale_temps, sha256_bytes, write_atomic, write_dir_atomic
-from pcbdata.kicad_writer import BOARD_FILE, board_files
+from pcbdata.kicad_writer import BOARD_FILE, PROJECT_FILE, RULES_FILE, board_files
 from pcbdata.manifest import FORMAT, MANIFEST_NAME, merge_configs, write_manifest
 from pcbdata.rng import SEED_SCHEME
 
@@ -268,7 +268,7 @@ def _check_in_kicad(root: Path, jobs: list[SplitJob], entries, workers: int,
     progress = _Progress("KiCad check", len(todo))
     try:
         with EnginePool(workers=workers, task_timeout=task_timeout) as pool:
-            args = [(str(root / rel),) for rel, *_ in todo]
+            args = [_drc_args(root, rel) for rel, *_ in todo]
             for outcome in pool.map("pcbdata.engine.kicad:drc", args):
                 rel, sha, expected, job = todo[outcome.index]
                 progress.advance()
@@ -285,6 +285,14 @@ def _check_in_kicad(root: Path, jobs: list[SplitJob], entries, workers: int,
                     summary.checked += 1
     finally:
         checks.close()
+
+
+def _drc_args(root: Path, rel: str) -> tuple:
+    """Every file of a board folder is checked under the folder's own project and rules."""
+    path = root / rel
+    project = path.parent / PROJECT_FILE
+    rules = path.parent / RULES_FILE
+    return (str(path), str(project), str(rules) if rules.exists() else None)
 
 
 def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo], entries) -> None:

@@ -6,6 +6,7 @@ functions are called through `pcbdata.engine.pool.EnginePool`, never in the main
 from __future__ import annotations
 
 import os
+import shutil
 import tempfile
 
 
@@ -42,8 +43,24 @@ def drc_text(path: str) -> str:
             return handle.read()
 
 
-def drc(path: str) -> dict:
-    """DRC of a board file as a plain-data report (see `drc_report.DrcReport.to_dict`)."""
+def drc(path: str, project: str | None = None, custom_rules: str | None = None) -> dict:
+    """DRC of a board file as a plain-data report (see `drc_report.DrcReport.to_dict`).
+
+    KiCad takes the rules from the `.kicad_pro`/`.kicad_dru` that share the board file's stem.
+    With `project` (and `custom_rules`) given, the board is checked under those rules instead:
+    a copy of it is checked next to copies of them, so that e.g. `reference.kicad_pcb` or a
+    submitted board is judged by its instance's `board.kicad_pro`, never by files of its own.
+    """
     from pcbdata.engine.drc_report import parse_drc_report
 
-    return parse_drc_report(drc_text(path)).to_dict()
+    if project is None:
+        return parse_drc_report(drc_text(path)).to_dict()
+    if not os.path.isfile(path):
+        raise FileNotFoundError(f"{path}: no such board file")
+    with tempfile.TemporaryDirectory(prefix="pcbdata-rules-") as tmp:
+        board = os.path.join(tmp, "checked.kicad_pcb")
+        shutil.copyfile(path, board)
+        shutil.copyfile(project, os.path.join(tmp, "checked.kicad_pro"))
+        if custom_rules is not None:
+            shutil.copyfile(custom_rules, os.path.join(tmp, "checked.kicad_dru"))
+        return parse_drc_report(drc_text(board)).to_dict()

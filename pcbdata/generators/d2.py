@@ -9,8 +9,8 @@ from pcbdata.errors import GenerationError, UserError
 from pcbdata.generators.base import Instance, board_id
 from pcbdata.rng import Stream
 
-_ATTEMPTS_PER_PAD = 2000
-_PLACEMENT_RESTARTS = 50
+_ATTEMPTS_PER_PAD = 500
+_PLACEMENT_RESTARTS = 10
 # Random sequential placement saturates near 55 % of the hexagonal packing density; asking
 # for more than this share of the hexagonal bound is rejected up front instead of retried.
 _FILL_LIMIT = 0.5

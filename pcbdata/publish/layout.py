@@ -15,10 +15,12 @@ A set whose card is missing is not published (or was being re-published when it 
 from __future__ import annotations
 
 import difflib
+import os
 import re
 from pathlib import Path
 
 from pcbdata.errors import UserError
+from pcbdata.fsutil import write_atomic
 
 CARD_NAME = "README.md"
 STATE_NAME = "publish.json"
@@ -76,6 +78,12 @@ def suggest(name: str, choices, what: str) -> UserError:
     close = difflib.get_close_matches(name, choices, n=1, cutoff=0.5)
     hint = f"; did you mean {close[0]!r}?" if close else ""
     return UserError(f"unknown {what} {name!r}{hint} ({what}s: {', '.join(choices) or 'none'})")
+
+
+def write_file(path: str | Path, data: str | bytes) -> None:
+    """Atomic write of a published file, readable by everyone (like the shards)."""
+    write_atomic(path, data)
+    os.chmod(path, 0o644)
 
 
 def card_path(root: str | Path) -> Path:

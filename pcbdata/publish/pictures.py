@@ -3,11 +3,14 @@ previews (rendered from the boards with `kicad-cli pcb export svg`)."""
 from __future__ import annotations
 
 import math
+import re
 import shutil
 import subprocess
 import tempfile
 from html import escape
 from pathlib import Path
+
+from pcbdata.publish.layout import write_file
 
 # Colours of the D3 tiers, and of everything else.
 _TIER_COLOURS = {"d3-a": "#4c78a8", "d3-b": "#f58518", "d3-c": "#54a24b"}
@@ -135,8 +138,11 @@ def render_preview(board_path: Path, out_path: Path, timeout: float = 120) -> st
             return f"kicad-cli failed: {exc}"
         if not svg.is_file():
             return "kicad-cli wrote no SVG"
-        out_path.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copyfile(svg, out_path)
+        text = svg.read_text(encoding="utf-8")
+    # KiCad stamps the export time into the title; drop it so that re-publishing is byte-stable.
+    text = re.sub(r"<title>.*?</title>", f"<title>{escape(board_path.parent.name)}</title>", text,
+                  count=1, flags=re.S)
+    write_file(out_path, text)
     return None
 
 

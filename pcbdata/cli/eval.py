@@ -1,0 +1,40 @@
+"""`pcbdata eval`: score a submission of routed boards (or a D3 config's reference boards)."""
+from __future__ import annotations
+
+import os
+
+VERB = "eval"
+HELP = "score routed boards against a built board set (CP, Pot., Rout., DRV, WL, Via, Time)"
+
+
+def register(parser) -> None:
+    parser.add_argument("dir", metavar="DIR", help="a built board set (holds manifest.json)")
+    parser.add_argument("--config", required=True, help="config name, e.g. d2, d1-g10, d3-a")
+    parser.add_argument("--split", default="test", help="split name (default: test)")
+    parser.add_argument("--runs", metavar="RUNS",
+                        help="submission folder: RUNS/<board_id>/<rollout>.kicad_pcb "
+                             "(+ optional <rollout>.json with time_s)")
+    parser.add_argument("--reference", action="store_true",
+                        help="score the set's reference boards (D3) instead of a submission")
+    parser.add_argument("--out", required=True, metavar="REPORT", help="report folder (resumable)")
+    parser.add_argument("--k", type=int, default=5, help="rollouts per board (default: 5)")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                        help="KiCad worker processes (default: CPU count)")
+    parser.add_argument("--name", help="method name in the table (default: RUNS folder name)")
+    parser.add_argument("--timeout", type=float, default=300.0,
+                        help="seconds allowed per board (default: 300)")
+    parser.add_argument("--lw", type=float, default=0.002, help="potential weight per mm of WL")
+    parser.add_argument("--lv", type=float, default=0.1, help="potential weight per via")
+    parser.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from pcbdata.evaluator.metrics import Weights
+    from pcbdata.evaluator.runs import evaluate_set
+
+    result = evaluate_set(args.dir, args.config, args.split, args.out, runs=args.runs,
+                          k=args.k, reference=args.reference, workers=args.workers,
+                          weights=Weights(lw=args.lw, lv=args.lv), name=args.name,
+                          task_timeout=args.timeout)
+    print(result["table"], end="")
+    return 0

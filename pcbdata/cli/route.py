@@ -1,0 +1,38 @@
+"""`pcbdata route`: route a board set with a Specctra router (baseline submissions)."""
+from __future__ import annotations
+
+import os
+
+VERB = "route"
+HELP = "route a board set through KiCad's Specctra DSN/SES round trip (default router: freeroute)"
+
+
+def register(parser) -> None:
+    parser.add_argument("dir", metavar="DIR", help="a built board set")
+    parser.add_argument("--config", required=True, help="config name, e.g. d2, d3-a")
+    parser.add_argument("--split", default="test", help="split name (default: test)")
+    parser.add_argument("--out", required=True, metavar="RUNS",
+                        help="output folder: RUNS/<board_id>/<rollout>.kicad_pcb (+ .json)")
+    parser.add_argument("--router", default="freeroute", help="router (default: freeroute)")
+    parser.add_argument("--router-cmd", metavar="CMD",
+                        help="any DSN->SES command, with {dsn} and {ses} placeholders, e.g. "
+                             "'java -jar freerouting.jar -de {dsn} -do {ses}'")
+    parser.add_argument("--rollouts", type=int, default=1,
+                        help="rollouts per board; freeroute cycles through engine variants")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                        help="parallel boards (default: CPU count)")
+    parser.add_argument("--timeout", type=float, default=120.0,
+                        help="seconds allowed to the router per board (default: 120)")
+    parser.add_argument("--limit", type=int, help="route only the first N boards")
+    parser.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from pcbdata.router import route_set
+
+    counts = route_set(args.dir, args.config, args.split, args.out, router=args.router,
+                       router_cmd=args.router_cmd, rollouts=args.rollouts, workers=args.workers,
+                       router_timeout=args.timeout, limit=args.limit)
+    print(f"routed {counts['routed']}, failed {counts['failed']}, "
+          f"skipped {counts['skipped']} (already routed)")
+    return 0

@@ -1,0 +1,108 @@
+"""Specctra round trip through KiCad: export DSN, run a router, import SES, save the board.
+
+Runs inside engine worker processes only. The router is any command that reads a DSN file and
+writes an SES file; `{dsn}` and `{ses}` in its argument list are replaced by the file paths.
+"""
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import tempfile
+import time
+
+from pcbdata.engine.scoring import stage_board
+
+_RESOLUTION = re.compile(rb"\(resolution\s+(\w+)\s+(\d+)\)")
+_DSN_UNIT = re.compile(rb"\(unit\s+(\w+)\)")
+
+
+def _pcbnew():
+    import pcbnew  # imported lazily: only engine workers need KiCad
+
+    return pcbnew
+
+
+def fix_ses_resolution(dsn: bytes, ses: bytes) -> bytes:
+    """Makes the SES resolution match the unit the coordinates are written in.
+
+    freeroute 2026.7.14 writes SES coordinates in the DSN's unit (um for KiCad's export) but
+    labels them with the DSN's resolution (`(resolution um 10)`), so KiCad would import every
+    track 10x too small. Rewrites `(resolution U N)` to `(resolution U 1)` when the DSN declares
+    `(unit U)`; a correct SES (coordinates in resolution units) is not touched because its
+    coordinates would then be N times larger than the DSN's, which this check detects.
+    """
+    unit = _DSN_UNIT.search(dsn)
+    if unit is None:
+        return ses
+    dsn_placements = re.findall(rb"\(place\s+\S+\s+(-?[\d.]+)\s+(-?[\d.]+)", dsn)
+    ses_placements = re.findall(rb"\(place\s+\S+\s+(-?[\d.]+)\s+(-?[\d.]+)", ses)
+    if dsn_placements and ses_placements:
+        first_dsn = max(abs(float(dsn_placements[0][0])), 1e-9)
+        if abs(abs(float(ses_placements[0][0])) / first_dsn - 1) > 0.01:
+            return ses  # SES coordinates are scaled: they already follow its resolution
+    return _RESOLUTION.sub(lambda m: b"(resolution " + m.group(1) + b" 1)", ses)
+
+
+def route_board(board_path: str, instance_dir: str, out_path: str, command: list[str],
+                router_timeout: float, fix_resolution: bool = False) -> dict:
+    """Exports the board as DSN, runs `command` on it, imports the SES and saves the routed
+    board to `out_path`. Returns {ok, reason, seconds, router_seconds, tracks, vias}."""
+    pcbnew = _pcbnew()
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="pcbdata-route-") as tmp:
+        staged = stage_board(board_path, instance_dir, tmp)
+        board = pcbnew.LoadBoard(staged)
+        dsn, ses = os.path.join(tmp, "board.dsn"), os.path.join(tmp, "board.ses")
+        if not pcbnew.ExportSpecctraDSN(board, dsn):
+            return {"ok": False, "reason": "KiCad could not export the DSN file"}
+        argv = [a.replace("{dsn}", dsn).replace("{ses}", ses) for a in command]
+        router_start = time.perf_counter()
+        try:
+            result = subprocess.run(argv, capture_output=True, timeout=router_timeout, cwd=tmp)
+        except subprocess.TimeoutExpired:
+            return {"ok": False, "reason": f"router exceeded {router_timeout:g} s",
+                    "seconds": time.perf_counter() - start, "router_seconds": router_timeout}
+        except OSError as exc:
+            return {"ok": False, "reason": f"router could not start: {exc}"}
+        router_seconds = time.perf_counter() - router_start
+        if result.returncode != 0 or not os.path.isfile(ses) or os.path.getsize(ses) == 0:
+            tail = result.stderr.decode(errors="replace").strip().splitlines()[-1:] or [""]
+            return {"ok": False, "reason": f"router failed (exit {result.returncode}) {tail[0]}".strip(),
+                    "seconds": time.perf_counter() - start, "router_seconds": router_seconds}
+        if fix_resolution:
+            with open(dsn, "rb") as handle:
+                dsn_bytes = handle.read()
+            with open(ses, "rb") as handle:
+                fixed = fix_ses_resolution(dsn_bytes, handle.read())
+            with open(ses, "wb") as handle:
+                handle.write(fixed)
+        if not pcbnew.ImportSpecctraSES(board, ses):
+            return {"ok": False, "reason": "KiCad could not import the SES file"}
+        tracks = vias = 0
+        for item in board.GetTracks():
+            if item.Type() == pcbnew.PCB_VIA_T:
+                vias += 1
+            else:
+                tracks += 1
+        saved = os.path.join(tmp, "routed.kicad_pcb")
+        board.Save(saved)
+        os.makedirs(os.path.dirname(os.path.abspath(out_path)), exist_ok=True)
+        os.replace(saved, out_path) if _same_fs(saved, out_path) else _copy(saved, out_path)
+        return {"ok": True, "reason": "", "seconds": time.perf_counter() - start,
+                "router_seconds": router_seconds, "tracks": tracks, "vias": vias}
+
+
+def _same_fs(a: str, b: str) -> bool:
+    try:
+        return os.stat(a).st_dev == os.stat(os.path.dirname(os.path.abspath(b))).st_dev
+    except OSError:
+        return False
+
+
+def _copy(source: str, target: str) -> None:
+    import shutil
+
+    partial = target + ".partial"
+    shutil.copyfile(source, partial)
+    os.replace(partial, target)

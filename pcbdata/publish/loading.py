@@ -1,0 +1,208 @@
+"""Reading published sets: `load` (a `datasets.Dataset`), boards as files (`row_files`,
+`materialize_row`, `iter_boards`) and `materialize` (rows of sets or shards back to a tree)."""
+from __future__ import annotations
+
+import os
+import shutil
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, Iterator
+
+import pyarrow.parquet as pq
+
+from pcbdata.errors import UserError
+from pcbdata.fsutil import sha256_bytes, write_dir_atomic
+from pcbdata.publish.card import read_card_configs
+from pcbdata.publish.layout import CARD_NAME, FILE_COLUMNS, split_key, suggest
+
+ROOT_ENV = "PCBDATA_ROOT"
+
+
+def _resolve_root(root) -> str | Path:
+    if root is None:
+        root = os.environ.get(ROOT_ENV)
+        if not root:
+            raise UserError(f"no board set given: pass root=DIR (a built set) or a Hub repo id "
+                            f"OWNER/NAME, or set {ROOT_ENV}")
+    if isinstance(root, Path) or os.path.exists(str(root)) or str(root).startswith((".", "/", "~")):
+        return Path(os.path.expanduser(str(root)))
+    return str(root)  # a Hub dataset repository id
+
+
+def _bad_shard(root: Path, shards: list[str]) -> str | None:
+    for rel in shards:
+        try:
+            pq.read_table(root / rel)
+        except Exception as exc:  # noqa: BLE001
+            first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            return f"{root / rel}: corrupt parquet shard ({first}); run `pcbdata verify {root}`"
+    return None
+
+
+def load(config: str, split: str = "test", root=None, **kwargs):
+    """One config and split of a board set as a `datasets.Dataset`.
+
+    `root` is a built and published set folder or a Hub repo id (default: $PCBDATA_ROOT);
+    other keyword arguments go to `datasets.load_dataset` (e.g. `cache_dir`, `num_proc`)."""
+    import datasets
+
+    root = _resolve_root(root)
+    if isinstance(root, str):
+        try:
+            return datasets.load_dataset(root, config, split=split, **kwargs)
+        except Exception as exc:  # noqa: BLE001 - Hub and network failures become one line
+            first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+            raise UserError(f"cannot load {root} ({config}/{split}): {first}") from None
+    if not root.is_dir():
+        raise UserError(f"{root}: no such board set folder")
+    card = read_card_configs(root)
+    if config not in card:
+        raise suggest(config, card, "config")
+    if split not in card[config]:
+        raise suggest(split, card[config], "split")
+    shards = card[config][split]
+    for rel in shards:
+        if not (root / rel).is_file():
+            raise UserError(f"{root / rel}: shard listed in the card is missing; run "
+                            f"`pcbdata publish {root}` again")
+    try:
+        return datasets.load_dataset(str(root), config, split=split, **kwargs)
+    except Exception as exc:  # noqa: BLE001
+        problem = _bad_shard(root, shards)
+        if problem:
+            raise UserError(problem) from None
+        raise
+
+
+# ---- boards as files ---------------------------------------------------------------------
+
+def row_files(row: dict) -> dict[str, bytes]:
+    """File name -> bytes of one row's board folder. Raises UserError for a recipe row."""
+    if row.get("board") is None:
+        raise UserError(f"{row.get('config')}/{row.get('split')}/{row.get('board_id')}: a recipe "
+                        f"row (its licence does not permit redistribution): no board text; "
+                        f"`pcbdata build d3` restores it from a PCBench checkout")
+    files = {}
+    for name, (text_col, hash_col) in FILE_COLUMNS.items():
+        if row.get(text_col) is not None:
+            files[name] = (row[text_col], row.get(hash_col))
+    for item in row.get("other_files") or []:
+        files[item["name"]] = (item["text"], item.get("sha256"))
+    out = {}
+    for name, (text, digest) in files.items():
+        data = text.encode("utf-8")
+        if digest and sha256_bytes(data) != digest:
+            raise UserError(f"{row.get('board_id')}: {name} does not match its sha256 (damaged row)")
+        out[name] = data
+    return out
+
+
+def materialize_row(row: dict, out_dir: str | Path, layout: str = "tree") -> Path:
+    """Writes one row's board folder; returns it. `layout="tree"` gives
+    `out_dir/<config>/<split>/<board_id>/` (the built set's layout), `"flat"` `out_dir/<board_id>/`."""
+    out_dir = Path(out_dir)
+    if layout == "tree":
+        folder = out_dir / row["config"] / row["split"] / row["board_id"]
+    elif layout == "flat":
+        folder = out_dir / row["board_id"]
+    else:
+        raise UserError(f"unknown layout {layout!r}; choose tree or flat")
+    write_dir_atomic(folder, row_files(row))
+    return folder
+
+
+@dataclass
+class BoardOnDisk:
+    board_id: str
+    folder: Path
+    row: dict
+
+    @property
+    def board_path(self) -> Path:
+        return self.folder / "board.kicad_pcb"
+
+    @property
+    def project_path(self) -> Path:
+        return self.folder / "board.kicad_pro"
+
+    @property
+    def reference_path(self) -> Path | None:
+        path = self.folder / "reference.kicad_pcb"
+        return path if path.is_file() else None
+
+
+def iter_boards(rows: Iterable[dict] | str, split: str = "test", root=None,
+                workdir: str | Path | None = None, skip_recipes: bool = True) -> Iterator[BoardOnDisk]:
+    """Yields every board of `rows` (a Dataset, any iterable of rows, or a config name loaded
+    with `load(config, split, root)`) written as files in a folder.
+
+    Without `workdir` each board lives in a temporary folder that is removed when the next
+    board is yielded (copy what you want to keep); with `workdir` boards are kept in
+    `workdir/<board_id>/`. Recipe rows are skipped (or raise with `skip_recipes=False`)."""
+    if isinstance(rows, str):
+        rows = load(rows, split=split, root=root)
+    for row in rows:
+        if row.get("board") is None and skip_recipes:
+            continue
+        if workdir is not None:
+            yield BoardOnDisk(row["board_id"], materialize_row(row, workdir, layout="flat"), row)
+            continue
+        tmp = tempfile.mkdtemp(prefix="pcbdata-board-")
+        try:
+            yield BoardOnDisk(row["board_id"], materialize_row(row, tmp, layout="flat"), row)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _shards_of(source: Path, configs: list[str] | None, splits: list[str] | None) -> list[Path]:
+    if source.is_file():
+        return [source]
+    if not source.is_dir():
+        raise UserError(f"{source}: no such set folder or parquet file")
+    if not (source / CARD_NAME).is_file():
+        raise UserError(f"{source}: no dataset card ({CARD_NAME}); not a published set "
+                        f"(run `pcbdata publish {source}`)")
+    card = read_card_configs(source)
+    for name in configs or []:
+        if name not in card:
+            raise suggest(name, card, "config")
+    out = []
+    for config in card:
+        if configs and config not in configs:
+            continue
+        for split in sorted(card[config], key=split_key):
+            if splits and split not in splits:
+                continue
+            out += [source / rel for rel in card[config][split]]
+    return out
+
+
+def materialize(sources: list[str | Path], out_dir: str | Path, configs: list[str] | None = None,
+                splits: list[str] | None = None, board_ids: list[str] | None = None,
+                layout: str = "tree") -> dict:
+    """Writes the rows of published sets or parquet shards as board folders under `out_dir`.
+
+    Returns counts: {"written", "recipes"} (recipe rows have no text and are listed, not written)."""
+    written, recipes = 0, []
+    wanted = set(board_ids or [])
+    for source in sources:
+        for shard in _shards_of(Path(source), configs, splits):
+            try:
+                parquet = pq.ParquetFile(shard)
+            except Exception as exc:  # noqa: BLE001
+                raise UserError(f"{shard}: not a readable parquet shard ({exc})") from None
+            for batch in parquet.iter_batches(batch_size=256):
+                for row in batch.to_pylist():
+                    if configs and row.get("config") not in configs:
+                        continue
+                    if splits and row.get("split") not in splits:
+                        continue
+                    if wanted and row.get("board_id") not in wanted:
+                        continue
+                    if row.get("board") is None:
+                        recipes.append(f"{row.get('config')}/{row.get('split')}/{row.get('board_id')}")
+                        continue
+                    materialize_row(row, out_dir, layout=layout)
+                    written += 1
+    return {"written": written, "recipes": recipes}

@@ -1,0 +1,268 @@
+"""`publish_set`: turns a built set (tree + manifest) into a Hugging Face dataset in place.
+
+Atomic: shards and pictures are written into a staging folder inside the set; the commit then
+removes the card, moves the staged files into place, removes stale shards, and writes
+`publish.json` and the card last. The card is the commit point: while it is missing the set is
+not published, so a stopped run never leaves a set that `load_dataset`, `pcbdata.load` or
+`verify` take for complete. Idempotent: a config whose manifest entry and shards are unchanged
+since the last run is not rewritten; rewriting gives the same bytes.
+"""
+from __future__ import annotations
+
+import fcntl
+import hashlib
+import json
+import os
+import shutil
+from contextlib import contextmanager
+from pathlib import Path
+
+import pyarrow.parquet as pq
+
+from pcbdata.errors import UserError
+from pcbdata.fsutil import sha256_file
+from pcbdata.manifest import read_manifest
+from pcbdata.publish import pictures
+from pcbdata.publish.card import attribution_markdown, card_text
+from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, LOCK_NAME, PICTURES_DIR,
+                                    PUBLISH_FORMAT, SHARD_RE, STAGE_NAME, STATE_NAME,
+                                    config_key, shard_name, split_key, suggest, write_file)
+from pcbdata.publish.rows import (KNOWN_FACTS, is_redistributable, iter_rows, schema_for,
+                                  table_from_rows)
+
+SHARD_BYTES = 256 * 1024 * 1024  # uncompressed text per shard
+ROW_GROUP_BYTES = 32 * 1024 * 1024
+ROW_GROUP_ROWS = 1000
+DEFAULT_PREVIEWS = 3
+_SMALL_COLUMNS = ["config", "split", "family", "set_version", "parameters"]
+
+
+def fingerprint(manifest: dict, config: str) -> str:
+    data = {"format": PUBLISH_FORMAT, "config": manifest["configs"][config],
+            "kicad_version": manifest.get("kicad_version")}
+    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+
+
+def read_state(root: Path) -> dict:
+    path = root / STATE_NAME
+    try:
+        state = json.loads(path.read_text(encoding="utf-8"))
+        if state.get("format") == PUBLISH_FORMAT:
+            return state
+    except (FileNotFoundError, json.JSONDecodeError, UnicodeDecodeError):
+        pass
+    return {"format": PUBLISH_FORMAT, "configs": {}, "pictures": []}
+
+
+@contextmanager
+def _locked(root: Path):
+    with open(root / LOCK_NAME, "w") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _up_to_date(root: Path, manifest: dict, config: str, state: dict) -> bool:
+    entry = state["configs"].get(config)
+    if not entry or entry.get("fingerprint") != fingerprint(manifest, config):
+        return False
+    if set(entry["splits"]) != set(manifest["configs"][config].get("splits", {})):
+        return False
+    for split in entry["splits"].values():
+        for rel, info in split["shards"].items():
+            path = root / rel
+            if not path.is_file() or path.stat().st_size != info["bytes"] or sha256_file(path) != info["sha256"]:
+                return False
+    return all((root / p).is_file() for p in entry.get("pictures", []))
+
+
+def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str, has_cells: bool) -> dict:
+    schema = schema_for(cfg, has_cells)
+    stats_columns = [f.name for f in schema if f.name in KNOWN_FACTS or f.name in
+                     ("board_id", "split", "config", "redistributable", "seed", "grid_size")]
+    out_dir = stage / config
+    out_dir.mkdir(parents=True, exist_ok=True)
+    chunks: list[Path] = []
+    writer = None
+    buffer: list[dict] = []
+    buffer_bytes = shard_bytes = 0
+    rows = raw_total = 0
+
+    def open_writer():
+        path = out_dir / f".chunk-{split}-{len(chunks):05d}"
+        chunks.append(path)
+        return pq.ParquetWriter(path, schema, compression="zstd", compression_level=9,
+                                use_dictionary=_SMALL_COLUMNS, write_statistics=stats_columns,
+                                write_page_checksum=True)
+
+    def flush():
+        nonlocal buffer, buffer_bytes, writer
+        if buffer:
+            if writer is None:
+                writer = open_writer()
+            writer.write_table(table_from_rows(buffer, schema))
+        buffer, buffer_bytes = [], 0
+
+    for row, raw in iter_rows(root, config, cfg, split, has_cells):
+        size = sum(len(row[c] or "") for c in ("board", "project", "custom_rules", "reference"))
+        size += sum(len(f["text"] or "") for f in row["other_files"])
+        if shard_bytes and shard_bytes + size > SHARD_BYTES:
+            flush()
+            writer.close()
+            writer, shard_bytes = None, 0
+        buffer.append(row)
+        buffer_bytes += size
+        shard_bytes += size
+        rows += 1
+        raw_total += raw
+        if buffer_bytes >= ROW_GROUP_BYTES or len(buffer) >= ROW_GROUP_ROWS:
+            flush()
+    flush()
+    if writer is None:  # an empty split still gets one (empty) shard so that it loads
+        writer = open_writer()
+        writer.write_table(table_from_rows([], schema))
+    writer.close()
+    shards = {}
+    for k, chunk in enumerate(chunks):
+        final = out_dir / shard_name(split, k, len(chunks))
+        os.replace(chunk, final)
+        shards[f"{config}/{final.name}"] = {"sha256": sha256_file(final), "bytes": final.stat().st_size}
+    return {"rows": rows, "shards": shards, "raw_bytes": raw_total,
+            "parquet_bytes": sum(s["bytes"] for s in shards.values())}
+
+
+def _stage_pictures(root: Path, stage: Path, config: str, cfg: dict, previews: int) -> tuple[list[str], list[str]]:
+    splits = cfg.get("splits", {})
+    hist_splits = ["full"] if "full" in splits else list(splits)
+    pads = [b.get("n_pads") for s in hist_splits for b in splits[s].get("boards", {}).values()
+            if b.get("n_pads") is not None]
+    rel_dir = f"{PICTURES_DIR}/{config}"
+    made, notes = [], []
+    if pads:
+        title = f"{config}: pad count per board ({', '.join(hist_splits)}, {len(pads)} boards)"
+        write_file(stage / rel_dir / "pads.svg", pictures.histogram_svg({config: pads}, title))
+        made.append(f"{rel_dir}/pads.svg")
+    preview_split = "test" if "test" in splits else (sorted(splits, key=split_key) or [None])[0]
+    if preview_split is None or previews <= 0:
+        return made, notes
+    boards = [(bid, b.get("n_pads") or 0) for bid, b in splits[preview_split].get("boards", {}).items()
+              if is_redistributable(b)]
+    for board_id in pictures.pick_previews(boards, previews):
+        folder = root / config / preview_split / board_id
+        source = folder / "reference.kicad_pcb"
+        if not source.is_file():
+            source = folder / "board.kicad_pcb"
+        rel = f"{rel_dir}/{board_id}.svg"
+        problem = pictures.render_preview(source, stage / rel)
+        if problem:
+            notes.append(f"{config}/{board_id}: no preview ({problem})")
+        else:
+            made.append(rel)
+    return made, notes
+
+
+def _d3_tier_histogram(manifest: dict, stage: Path) -> list[str]:
+    tiers = {}
+    for config in ("d3-a", "d3-b", "d3-c"):
+        cfg = manifest["configs"].get(config)
+        if not cfg:
+            continue
+        split = "full" if "full" in cfg.get("splits", {}) else None
+        boards = [b for s, e in cfg.get("splits", {}).items() if split in (None, s)
+                  for b in e.get("boards", {}).values()]
+        tiers[config] = [b["n_pads"] for b in boards if b.get("n_pads") is not None]
+    if not any(tiers.values()):
+        return []
+    boundaries = []
+    if tiers.get("d3-a") and (tiers.get("d3-b") or tiers.get("d3-c")):
+        boundaries.append((max(tiers["d3-a"]) + 0.5, "A | B"))
+    if tiers.get("d3-b") or tiers.get("d3-c"):
+        boundaries.append((100.5, "B | C (100 pads)"))
+    total = sum(len(v) for v in tiers.values())
+    svg = pictures.histogram_svg({k: v for k, v in tiers.items() if v},
+                                 f"D3: pad count per board by tier ({total} boards)", boundaries)
+    rel = f"{PICTURES_DIR}/d3-tiers-pads.svg"
+    write_file(stage / rel, svg)
+    return [rel]
+
+
+def publish_set(root: str | Path, configs: list[str] | None = None, *, previews: int = DEFAULT_PREVIEWS,
+                force: bool = False, log=None) -> None:
+    """Writes parquet shards, pictures and the card for the configs of `root`'s manifest.
+
+    `configs` are (re)written even when up to date; the other configs of the manifest are
+    written only if they are missing or stale, so that the card always covers the whole
+    manifest. `force` rewrites everything."""
+    root = Path(root)
+    manifest = read_manifest(root)
+    known = list(manifest.get("configs", {}))
+    for name in configs or []:
+        if name not in known:
+            raise suggest(name, known, "config")
+    if not known:
+        raise UserError(f"{root}: the manifest lists no configs; nothing to publish")
+    say = log or (lambda message: None)
+    with _locked(root):
+        state = read_state(root)
+        stage = root / STAGE_NAME
+        shutil.rmtree(stage, ignore_errors=True)
+        stage.mkdir()
+        try:
+            todo = [c for c in sorted(known, key=config_key)
+                    if force or c in (configs or []) or not _up_to_date(root, manifest, c, state)]
+            staged = {}
+            for config in todo:
+                cfg = manifest["configs"][config]
+                has_cells = cfg.get("family") == "d1" and any(
+                    (root / config / f"{s}.npz").is_file() for s in cfg.get("splits", {}))
+                splits = {}
+                for split in sorted(cfg.get("splits", {}), key=split_key):
+                    say(f"publishing {config}/{split}")
+                    splits[split] = _write_split(root, stage, config, cfg, split, has_cells)
+                made, notes = _stage_pictures(root, stage, config, cfg, previews)
+                for note in notes:
+                    say(note)
+                staged[config] = {"fingerprint": fingerprint(manifest, config), "splits": splits,
+                                  "pictures": made}
+            extra = _d3_tier_histogram(manifest, stage)
+            _commit(root, stage, manifest, state, staged, extra)
+        finally:
+            shutil.rmtree(stage, ignore_errors=True)
+
+
+def _remove_published(root: Path, config: str) -> None:
+    folder = root / config
+    if folder.is_dir():
+        for path in folder.iterdir():
+            if SHARD_RE.match(path.name):
+                path.unlink()
+    shutil.rmtree(root / PICTURES_DIR / config, ignore_errors=True)
+
+
+def _commit(root: Path, stage: Path, manifest: dict, state: dict, staged: dict, extra: list[str]) -> None:
+    (root / CARD_NAME).unlink(missing_ok=True)  # from here until the card is back: not published
+    gone = [c for c in state["configs"] if c not in manifest["configs"]]
+    for config in list(staged) + gone:
+        _remove_published(root, config)
+        state["configs"].pop(config, None)
+    for dirpath, _, filenames in os.walk(stage):
+        for name in filenames:
+            source = Path(dirpath) / name
+            target = root / source.relative_to(stage)
+            target.parent.mkdir(parents=True, exist_ok=True)
+            os.replace(source, target)
+    state["configs"].update(staged)
+    state["configs"] = dict(sorted(state["configs"].items(), key=lambda kv: config_key(kv[0])))
+    for old in state.get("pictures", []):
+        if old not in extra:
+            (root / old).unlink(missing_ok=True)
+    state["pictures"] = extra
+    write_file(root / STATE_NAME, json.dumps(state, indent=1, sort_keys=True) + "\n")
+    attribution = attribution_markdown(manifest)
+    if attribution is None:
+        (root / ATTRIBUTION_NAME).unlink(missing_ok=True)
+    else:
+        write_file(root / ATTRIBUTION_NAME, attribution)
+    write_file(root / CARD_NAME, card_text(manifest, state))

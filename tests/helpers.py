@@ -1,0 +1,50 @@
+"""Small helpers shared by tests: writing boards and reading them back with sexpdata."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import sexpdata
+
+from pcbdata.kicad_writer import board_files
+
+
+def write_board(folder: Path, board) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    for name, text in board_files(board).items():
+        (folder / name).write_text(text)
+    return folder / "board.kicad_pcb"
+
+
+def _head(node) -> str | None:
+    return node[0].value() if isinstance(node, list) and node and isinstance(node[0], sexpdata.Symbol) else None
+
+
+def _child(node, name: str):
+    return next((c for c in node if _head(c) == name), None)
+
+
+def parse_board(path: Path) -> list:
+    return sexpdata.loads(Path(path).read_text())
+
+
+def pads_in_file(path: Path) -> list[dict]:
+    """Pads of a board file written by pcbdata: centre (mm), layer, type, shape, size, net."""
+    out = []
+    for node in parse_board(path):
+        if _head(node) != "footprint":
+            continue
+        x, y = _child(node, "at")[1:3]
+        pad = _child(node, "pad")
+        out.append({"x": float(x), "y": float(y), "footprint_layer": _child(node, "layer")[1],
+                    "type": pad[2].value(), "shape": pad[3].value(),
+                    "size": tuple(float(v) for v in _child(pad, "size")[1:3]),
+                    "layers": list(_child(pad, "layers")[1:]),
+                    "drill": float(_child(pad, "drill")[1]) if _child(pad, "drill") else None,
+                    "net": _child(pad, "net")[2]})
+    return out
+
+
+def outline_in_file(path: Path) -> tuple[tuple[float, float], tuple[float, float], str]:
+    rect = next(n for n in parse_board(path) if _head(n) == "gr_rect")
+    start, end = _child(rect, "start")[1:3], _child(rect, "end")[1:3]
+    return (float(start[0]), float(start[1])), (float(end[0]), float(end[1])), _child(rect, "layer")[1]
