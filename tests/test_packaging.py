@@ -1,0 +1,19 @@
+"""The installed package must contain every subpackage and the preset/recipe files."""
+import tomllib
+from pathlib import Path
+
+from tests.conftest import REPO_ROOT
+
+
+def test_every_subpackage_is_listed_in_pyproject():
+    listed = set(tomllib.loads((REPO_ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    on_disk = {".".join(p.parent.relative_to(REPO_ROOT).parts)
+               for p in (REPO_ROOT / "pcbdata").rglob("__init__.py")}
+    assert on_disk <= listed, f"add to pyproject [tool.setuptools] packages: {sorted(on_disk - listed)}"
+
+
+def test_presets_are_readable_as_package_data():
+    from pcbdata.presets import d1_preset, d2_level
+
+    assert d1_preset().grid_sizes == (10, 50, 100, 200, 500)
+    assert d2_level("default").version
