@@ -31,16 +31,20 @@ def load_board(path: str):
     return board
 
 
-def drc_text(path: str) -> str:
-    """Runs KiCad's DRC on a board file with its own project rules; returns the report text."""
+def board_drc_text(board, where: str = "board") -> str:
+    """KiCad's DRC (all track errors) of a loaded board under the project it was loaded with."""
     pcbnew = _pcbnew()
-    board = load_board(path)
     with tempfile.TemporaryDirectory(prefix="pcbdata-drc-") as tmp:
         report = os.path.join(tmp, "drc.rpt")
         if not pcbnew.WriteDRCReport(board, report, pcbnew.EDA_UNITS_MM, True):
-            raise RuntimeError(f"{path}: KiCad DRC did not produce a report")
+            raise RuntimeError(f"{where}: KiCad DRC did not produce a report")
         with open(report, encoding="utf-8") as handle:
             return handle.read()
+
+
+def drc_text(path: str) -> str:
+    """Runs KiCad's DRC on a board file with its own project rules; returns the report text."""
+    return board_drc_text(load_board(path), path)
 
 
 def drc(path: str, project: str | None = None, custom_rules: str | None = None) -> dict:
