@@ -59,10 +59,9 @@ def _check_file(path: Path, sha: str, where: str) -> list[str]:
 
 
 def _published_problems(root: Path, manifest: dict) -> list[str]:
-    if not (root / "README.md").exists():
-        return []
-    try:
-        from pcbdata.publish import verify_published
-    except ImportError:
-        return []
-    return verify_published(root, manifest)
+    from pcbdata.publish import verify_published
+
+    problems = [f"{p.name}: leftover of an interrupted publish" for p in sorted(root.glob(".*.tmp"))]
+    if (root / "README.md").exists() or (root / "publish.json").exists():
+        problems += verify_published(root, manifest)
+    return problems

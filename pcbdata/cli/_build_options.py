@@ -63,15 +63,8 @@ def run_build(args, jobs, configs) -> int:
     except ValidationError as exc:
         print(f"pcbdata: build failed: {exc}", file=sys.stderr)
         return 1
-    _publish_if_available(args.out, list(configs))
+    from pcbdata.publish import publish_set
+
+    publish_set(args.out, list(configs))
     print(f"done: {summary.line()}")
     return 0
-
-
-def _publish_if_available(root, configs) -> None:
-    """Parquet shards and card (issue 4) once the publish step exists in this install."""
-    try:
-        from pcbdata.publish import publish_set
-    except ImportError:
-        return
-    publish_set(root, configs)

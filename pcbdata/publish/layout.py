@@ -29,6 +29,7 @@ PICTURES_DIR = "pictures"
 STAGE_NAME = ".pcbdata-publish.tmp"  # removed by fsutil.remove_stale_temps if a run is killed
 LOCK_NAME = ".pcbdata-publish.lock"
 PUBLISH_FORMAT = "pcbdata-publish/1"
+INTERRUPTED_KEY = "pcbdata_publishing_interrupted"  # in the stub card written during a commit
 
 SPLIT_ORDER = ("train", "validation", "test", "full")
 SHARD_RE = re.compile(r"^(?P<split>[A-Za-z0-9_]+)-(?P<index>\d{5})-of-(?P<total>\d{5})\.parquet$")
@@ -55,16 +56,16 @@ def split_key(split: str) -> tuple[int, str]:
 
 def config_key(config: str) -> tuple:
     """Reading order of configs: d2 (and its levels), d1 by grid size, d3 tiers, then the rest."""
-    match = re.fullmatch(r"d1-g(\d+)", config)
+    match = re.fullmatch(r"d1-g(\d+)(-.+)?", config)
     if config == "d2":
-        return (0, 0, config)
+        return (0, 0, "", config)
     if config.startswith("d2-"):
-        return (0, 1, config)
+        return (0, 1, "", config)
     if match:
-        return (1, int(match.group(1)), config)
+        return (1, int(match.group(1)), match.group(2) or "", config)
     if config.startswith("d3"):
-        return (2, 0, config)
-    return (3, 0, config)
+        return (2, 0, "", config)
+    return (3, 0, "", config)
 
 
 def default_config(configs) -> str:
@@ -85,6 +86,3 @@ def write_file(path: str | Path, data: str | bytes) -> None:
     write_atomic(path, data)
     os.chmod(path, 0o644)
 
-
-def card_path(root: str | Path) -> Path:
-    return Path(root) / CARD_NAME

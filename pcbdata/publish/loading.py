@@ -2,7 +2,9 @@
 `materialize_row`, `iter_boards`) and `materialize` (rows of sets or shards back to a tree)."""
 from __future__ import annotations
 
+import hashlib
 import os
+import re
 import shutil
 import tempfile
 from dataclasses import dataclass
@@ -12,11 +14,13 @@ from typing import Iterable, Iterator
 import pyarrow.parquet as pq
 
 from pcbdata.errors import UserError
-from pcbdata.fsutil import sha256_bytes, write_dir_atomic
+from pcbdata.fsutil import sha256_bytes, sha256_file, write_dir_atomic
 from pcbdata.publish.card import read_card_configs
-from pcbdata.publish.layout import CARD_NAME, FILE_COLUMNS, split_key, suggest
+from pcbdata.publish.layout import CARD_NAME, FILE_COLUMNS, STATE_NAME, split_key, suggest
+from pcbdata.publish.verify import recorded_shard_hashes as _recorded_hashes
 
 ROOT_ENV = "PCBDATA_ROOT"
+_HUB_ID = re.compile(r"^[A-Za-z0-9][\w.-]*/[\w.-]+$")
 
 
 def _resolve_root(root) -> str | Path:
@@ -25,9 +29,9 @@ def _resolve_root(root) -> str | Path:
         if not root:
             raise UserError(f"no board set given: pass root=DIR (a built set) or a Hub repo id "
                             f"OWNER/NAME, or set {ROOT_ENV}")
-    if isinstance(root, Path) or os.path.exists(str(root)) or str(root).startswith((".", "/", "~")):
+    if isinstance(root, Path) or os.path.exists(str(root)) or not _HUB_ID.match(str(root)):
         return Path(os.path.expanduser(str(root)))
-    return str(root)  # a Hub dataset repository id
+    return str(root)  # a Hub dataset repository id (OWNER/NAME that is not a local folder)
 
 
 def _bad_shard(root: Path, shards: list[str]) -> str | None:
@@ -38,6 +42,21 @@ def _bad_shard(root: Path, shards: list[str]) -> str | None:
             first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
             return f"{root / rel}: corrupt parquet shard ({first}); run `pcbdata verify {root}`"
     return None
+
+
+def _cache_dir(root: Path, shards: list[str], recorded: dict[str, str]) -> Path:
+    """A `datasets` cache folder per shard content. `datasets` keys the cache of a local folder
+    by its name and the relative data file names, so two sets in folders of the same name (or a
+    set rebuilt in place) could otherwise be served each other's cached rows."""
+    import datasets
+
+    digest = hashlib.sha256()
+    for rel in sorted(shards):
+        path = root / rel
+        stamp = recorded.get(rel) or (
+            (path.stat().st_size, path.stat().st_mtime_ns) if path.is_file() else "missing")
+        digest.update(f"{rel}\0{stamp}\0".encode())
+    return Path(datasets.config.HF_DATASETS_CACHE) / "pcbdata" / digest.hexdigest()[:20]
 
 
 def load(config: str, split: str = "test", root=None, **kwargs):
@@ -53,7 +72,8 @@ def load(config: str, split: str = "test", root=None, **kwargs):
             return datasets.load_dataset(root, config, split=split, **kwargs)
         except Exception as exc:  # noqa: BLE001 - Hub and network failures become one line
             first = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-            raise UserError(f"cannot load {root} ({config}/{split}): {first}") from None
+            raise UserError(f"cannot load {root} ({config}/{split}): no such local folder, and as "
+                            f"a Hub dataset: {first[:300]}") from None
     if not root.is_dir():
         raise UserError(f"{root}: no such board set folder")
     card = read_card_configs(root)
@@ -62,10 +82,17 @@ def load(config: str, split: str = "test", root=None, **kwargs):
     if split not in card[config]:
         raise suggest(split, card[config], "split")
     shards = card[config][split]
+    recorded = _recorded_hashes(root)
     for rel in shards:
         if not (root / rel).is_file():
             raise UserError(f"{root / rel}: shard listed in the card is missing; run "
                             f"`pcbdata publish {root}` again")
+        if rel in recorded and sha256_file(root / rel) != recorded[rel]:
+            raise UserError(f"{root / rel}: corrupt parquet shard (its sha256 differs from "
+                            f"{STATE_NAME}); run `pcbdata verify {root}`")
+    if "cache_dir" not in kwargs:
+        every = [rel for paths in card[config].values() for rel in paths]  # datasets prepares all splits
+        kwargs["cache_dir"] = str(_cache_dir(root, every, recorded))
     try:
         return datasets.load_dataset(str(root), config, split=split, **kwargs)
     except Exception as exc:  # noqa: BLE001

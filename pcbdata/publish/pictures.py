@@ -43,7 +43,8 @@ def histogram_svg(series: dict[str, list[int]], title: str, boundaries: list[tup
         values = [0]
     if log is None:
         log = max(values) > 200 and max(values) > 20 * max(1, min(values))
-    bins = _bins(values, log)
+    # the axis spans the boundaries too, so that every tier limit is drawn
+    bins = _bins(values + [round(x) for x, _ in boundaries], log)
     counts = {name: [0] * len(bins) for name in series}
     for name, vals in series.items():
         for v in vals:

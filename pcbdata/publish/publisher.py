@@ -24,10 +24,10 @@ from pcbdata.fsutil import sha256_file
 from pcbdata.manifest import read_manifest
 from pcbdata.publish import pictures
 from pcbdata.publish.card import attribution_markdown, card_text
-from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, LOCK_NAME, PICTURES_DIR,
-                                    PUBLISH_FORMAT, SHARD_RE, STAGE_NAME, STATE_NAME,
+from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, INTERRUPTED_KEY, LOCK_NAME,
+                                    PICTURES_DIR, PUBLISH_FORMAT, SHARD_RE, STAGE_NAME, STATE_NAME,
                                     config_key, shard_name, split_key, suggest, write_file)
-from pcbdata.publish.rows import (KNOWN_FACTS, is_redistributable, iter_rows, schema_for,
+from pcbdata.publish.rows import (KNOWN_FACTS, board_fact, is_redistributable, iter_rows, schema_for,
                                   table_from_rows)
 
 SHARD_BYTES = 256 * 1024 * 1024  # uncompressed text per shard
@@ -35,6 +35,10 @@ ROW_GROUP_BYTES = 32 * 1024 * 1024
 ROW_GROUP_ROWS = 1000
 DEFAULT_PREVIEWS = 3
 _SMALL_COLUMNS = ["config", "split", "family", "set_version", "parameters"]
+
+
+STUB_CARD = (f"---\n{INTERRUPTED_KEY}: true\n---\n\n# Publishing of this board set did not finish\n\n"
+             "Run `pcbdata publish DIR` again; until then the set cannot be loaded.\n")
 
 
 def fingerprint(manifest: dict, config: str) -> str:
@@ -136,8 +140,8 @@ def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str, ha
 def _stage_pictures(root: Path, stage: Path, config: str, cfg: dict, previews: int) -> tuple[list[str], list[str]]:
     splits = cfg.get("splits", {})
     hist_splits = ["full"] if "full" in splits else list(splits)
-    pads = [b.get("n_pads") for s in hist_splits for b in splits[s].get("boards", {}).values()
-            if b.get("n_pads") is not None]
+    pads = [board_fact(b, "n_pads") for s in hist_splits for b in splits[s].get("boards", {}).values()
+            if board_fact(b, "n_pads") is not None]
     rel_dir = f"{PICTURES_DIR}/{config}"
     made, notes = [], []
     if pads:
@@ -147,7 +151,7 @@ def _stage_pictures(root: Path, stage: Path, config: str, cfg: dict, previews: i
     preview_split = "test" if "test" in splits else (sorted(splits, key=split_key) or [None])[0]
     if preview_split is None or previews <= 0:
         return made, notes
-    boards = [(bid, b.get("n_pads") or 0) for bid, b in splits[preview_split].get("boards", {}).items()
+    boards = [(bid, board_fact(b, "n_pads") or 0) for bid, b in splits[preview_split].get("boards", {}).items()
               if is_redistributable(b)]
     for board_id in pictures.pick_previews(boards, previews):
         folder = root / config / preview_split / board_id
@@ -172,7 +176,7 @@ def _d3_tier_histogram(manifest: dict, stage: Path) -> list[str]:
         split = "full" if "full" in cfg.get("splits", {}) else None
         boards = [b for s, e in cfg.get("splits", {}).items() if split in (None, s)
                   for b in e.get("boards", {}).values()]
-        tiers[config] = [b["n_pads"] for b in boards if b.get("n_pads") is not None]
+        tiers[config] = [board_fact(b, "n_pads") for b in boards if board_fact(b, "n_pads") is not None]
     if not any(tiers.values()):
         return []
     boundaries = []
@@ -242,7 +246,9 @@ def _remove_published(root: Path, config: str) -> None:
 
 
 def _commit(root: Path, stage: Path, manifest: dict, state: dict, staged: dict, extra: list[str]) -> None:
-    (root / CARD_NAME).unlink(missing_ok=True)  # from here until the card is back: not published
+    # From here until the real card is written the set is "being published": a stub card that
+    # `load`, `verify` and `datasets` all refuse (so an interrupted commit never looks complete).
+    write_file(root / CARD_NAME, STUB_CARD)
     gone = [c for c in state["configs"] if c not in manifest["configs"]]
     for config in list(staged) + gone:
         _remove_published(root, config)

@@ -19,6 +19,10 @@ from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, PICTURES_DIR, S
                                     config_key)
 from pcbdata.publish.verify import verify_published
 
+# Tables the D3 build writes next to the boards (attribution, characteristics, curation report,
+# the collection's licence notice): uploaded when present.
+EXTRA_TOP_FILES = ("attribution.csv", "attribution.json", "LICENSE-PCBench", "characteristics.csv",
+                   "curation_report.csv", "curation_report.json")
 _REPO_RE = re.compile(r"^[A-Za-z0-9][\w.-]*/[\w.-]+$")
 
 
@@ -26,8 +30,7 @@ def files_to_push(root: Path) -> list[str]:
     """Relative paths of the files `push` uploads, in a stable order."""
     card = read_card_configs(root)
     out = [CARD_NAME, STATE_NAME, MANIFEST_NAME]
-    if (root / ATTRIBUTION_NAME).is_file():
-        out.append(ATTRIBUTION_NAME)
+    out += [name for name in (ATTRIBUTION_NAME, *EXTRA_TOP_FILES) if (root / name).is_file()]
     for config in sorted(card, key=config_key):
         for split, shards in card[config].items():
             out += shards

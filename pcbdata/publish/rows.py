@@ -31,12 +31,24 @@ KNOWN_FACTS = {
     "n_layers": pa.int64(), "routing_layers": pa.int64(),
     "width_mm": pa.float64(), "height_mm": pa.float64(),
 }
+# Names the D3 curation uses for the same facts (its characteristics table's columns).
+FACT_ALIASES = {"n_nets": "nets", "n_pads": "pads", "n_components": "components",
+                "n_layers": "layers"}
 _RESERVED = {"config", "split", "board_id", "family", "set_version", "redistributable",
              "parameters", "seed", "grid_size", "starts", "targets", "other_files", "files",
              *KNOWN_FACTS, *(c for pair in FILE_COLUMNS.values() for c in pair)}
+_ALIAS_OF = {alias: key for key, alias in FACT_ALIASES.items()}
 OTHER_FILE_TYPE = pa.struct([("name", pa.string()), ("text", pa.large_string()),
                              ("sha256", pa.string())])
 CELLS_TYPE = pa.list_(pa.list_(pa.int32()))
+
+
+def board_fact(entry: dict, key: str):
+    """A standard per-board fact (n_pads, ...) under its own name or the D3 curation's alias."""
+    value = entry.get(key)
+    if value is None and key in FACT_ALIASES:
+        value = entry.get(FACT_ALIASES[key])
+    return value
 
 
 def is_redistributable(entry: dict) -> bool:
@@ -55,6 +67,8 @@ def _flat_facts(entry: dict) -> dict:
     for key, value in entry.items():
         if key in ("files", "redistributable") or key in KNOWN_FACTS:
             continue
+        if key in FACT_ALIASES.values() and board_fact(entry, _ALIAS_OF[key]) == value:
+            continue  # published as the standard column
         if isinstance(value, dict):
             for sub, subvalue in value.items():
                 if sub == "redistributable":
@@ -161,7 +175,7 @@ def iter_rows(root: Path, config: str, config_entry: dict, split: str, has_cells
                "redistributable": publish_text,
                "parameters": params, "seed": config_entry.get("seed"), "other_files": []}
         for key in KNOWN_FACTS:
-            row[key] = _coerce(entry.get(key), KNOWN_FACTS[key])
+            row[key] = _coerce(board_fact(entry, key), KNOWN_FACTS[key])
         facts = _flat_facts(entry)
         for key, typ in extra_types.items():
             row[key] = _coerce(facts.get(key), typ)

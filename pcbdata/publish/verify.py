@@ -17,7 +17,8 @@ _READ_COLUMNS = ["board_id", "split", "redistributable", "other_files",
                  *(c for pair in FILE_COLUMNS.values() for c in pair)]
 
 
-def _state_hashes(root: Path) -> dict[str, str]:
+def recorded_shard_hashes(root: Path) -> dict[str, str]:
+    """Shard path -> sha256 as `publish.json` recorded them (empty without it, e.g. a Hub copy)."""
     try:
         state = json.loads((root / STATE_NAME).read_text(encoding="utf-8"))
         return {rel: info["sha256"] for cfg in state.get("configs", {}).values()
@@ -40,7 +41,7 @@ def verify_published(root: str | Path, manifest: dict) -> list[str]:
     except UserError as exc:
         return [str(exc)]
     problems: list[str] = []
-    known_hashes = _state_hashes(root)
+    known_hashes = recorded_shard_hashes(root)
     configs = manifest.get("configs", {})
     for config in sorted(set(card) - set(configs), key=config_key):
         problems.append(f"{config}: listed in the card but not in the manifest")
@@ -65,18 +66,22 @@ def _verify_split(root: Path, config: str, split: str, boards: dict, shards: lis
     problems = []
     where = f"{config}/{split}"
     seen: Counter = Counter()
+    damaged = False
     for rel in shards:
         path = root / rel
         if not path.is_file():
             problems.append(f"{rel}: shard missing")
+            damaged = True
             continue
         if rel in known_hashes and sha256_file(path) != known_hashes[rel]:
             problems.append(f"{rel}: shard altered or corrupt (sha256 differs from {STATE_NAME})")
+            damaged = True
             continue
         try:
             table = pq.read_table(path, columns=_READ_COLUMNS)
         except Exception as exc:  # noqa: BLE001 - any reader failure means a damaged shard
             problems.append(f"{rel}: corrupt shard ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})")
+            damaged = True
             continue
         for row in table.to_pylist():
             board_id = row["board_id"]
@@ -87,7 +92,12 @@ def _verify_split(root: Path, config: str, split: str, boards: dict, shards: lis
             if entry is None:
                 continue
             problems += _check_row(where, board_id, row, entry)
-    for board_id in sorted(set(boards) - set(seen)):
+    missing = sorted(set(boards) - set(seen))
+    if damaged and missing:
+        problems.append(f"{where}: {len(missing)} boards of the manifest not found in the "
+                        f"readable shards (see the damaged shard above)")
+        missing = []
+    for board_id in missing:
         problems.append(f"{where}/{board_id}: missing from the parquet rows")
     for board_id in sorted(set(seen) - set(boards)):
         problems.append(f"{where}/{board_id}: extra row, not in the manifest")

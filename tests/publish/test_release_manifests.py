@@ -1,0 +1,77 @@
+"""The committed manifests of released sets (`manifests/`) match a rebuild of their small splits:
+a change that alters boards, splits or parameters cannot land unnoticed."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pcbdata.cli import main
+from pcbdata.manifest import read_manifest
+from pcbdata.publish import verify_published
+from pcbdata.publish.manifests import SUFFIX, compare, read_release
+
+MANIFESTS = Path(__file__).resolve().parents[2] / "manifests"
+SYNTHETIC = sorted(p for p in MANIFESTS.glob(f"*{SUFFIX}")
+                   if read_release(p)["configs"][p.name[: -len(SUFFIX)]]["family"] in ("d1", "d2"))
+SMALL = ["validation", "test"]
+
+
+def _config(path: Path) -> str:
+    return path.name[: -len(SUFFIX)]
+
+
+@pytest.fixture(scope="module")
+def rebuilt(tmp_path_factory):
+    """The small splits of every released synthetic config, rebuilt (no KiCad checks)."""
+    root = tmp_path_factory.mktemp("rebuild") / "set"
+    releases = {_config(p): read_release(p) for p in SYNTHETIC}
+    grids = [str(r["configs"][c]["parameters"]["grid"]) for c, r in releases.items()
+             if r["configs"][c]["family"] == "d1"]
+    if grids:
+        assert main(["build", "d1", "--grid", ",".join(grids), "--splits", ",".join(SMALL),
+                     "--no-check", "--workers", "2", "--out", str(root)]) == 0
+    for config, release in releases.items():
+        entry = release["configs"][config]
+        if entry["family"] == "d2":
+            assert main(["build", "d2", "--level", entry["level"], "--splits", ",".join(SMALL),
+                         "--no-check", "--workers", "2", "--out", str(root)]) == 0
+    return root
+
+
+def test_the_released_default_sets_are_committed():
+    names = {_config(p) for p in SYNTHETIC}
+    assert {"d1-g10", "d1-g50", "d1-g100", "d1-g200", "d1-g500", "d2"} <= names
+    for path in SYNTHETIC:
+        release = read_release(path)
+        entry = release["configs"][_config(path)]
+        assert release["kicad_version"] == "9.0.8" and entry["set_version"]
+        assert {s: entry["splits"][s]["count"] for s in entry["splits"]} == {
+            "train": 10000, "validation": 128, "test": 128}
+        assert all(len(b["files"]["board.kicad_pcb"]) == 64
+                   for s in entry["splits"].values() for b in s["boards"].values())
+
+
+@pytest.mark.parametrize("path", SYNTHETIC, ids=_config)
+def test_rebuilt_small_splits_match_the_committed_manifest(rebuilt, path):
+    problems = compare(read_release(path), read_manifest(rebuilt), _config(path), SMALL)
+    assert problems == []
+
+
+def test_the_rebuild_is_published_and_verifies(rebuilt):
+    assert verify_published(rebuilt, read_manifest(rebuilt)) == []
+
+
+def test_compare_names_changed_boards(rebuilt):
+    path = MANIFESTS / f"d2{SUFFIX}"
+    release = read_release(path)
+    test = release["configs"]["d2"]["splits"]["test"]["boards"]
+    test["board_00007"]["files"]["board.kicad_pcb"] = "0" * 64
+    test["board_00009"]["n_pads"] += 1
+    release["configs"]["d2"]["parameters"]["min_pad_spacing_mm"] = 5.0
+    assert compare(release, read_manifest(rebuilt), "d2", SMALL) == [
+        "d2: parameters changed: " + repr(release["configs"]["d2"]["parameters"]) + " -> "
+        + repr(read_manifest(rebuilt)["configs"]["d2"]["parameters"]),
+        "d2/test/board_00007: changed (board.kicad_pcb)",
+        "d2/test/board_00009: changed (n_pads)",
+    ]
