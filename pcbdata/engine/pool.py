@@ -96,9 +96,15 @@ class _Worker:
         self.ensure_started()
         try:
             self.conn.send((ref, args))
-            if not self.conn.poll(timeout):
-                self.kill()
-                return False, f"time limit of {timeout:g} s exceeded"
+            deadline = time.monotonic() + timeout
+            # Poll in slices so that a worker that dies without closing the pipe (or never
+            # starts, e.g. a script without a __main__ guard) is reported as such at once.
+            while not self.conn.poll(min(1.0, max(0.0, deadline - time.monotonic()))):
+                if not self.proc.is_alive():
+                    raise EOFError
+                if time.monotonic() >= deadline:
+                    self.kill()
+                    return False, f"time limit of {timeout:g} s exceeded"
             ok, value = self.conn.recv()
         except (EOFError, OSError, BrokenPipeError):
             self.proc.join(5)

@@ -106,6 +106,43 @@ def min_copper_spacing(board_bytes: bytes, project: dict, work: str, seed: int,
     return best
 
 
+def _items(board):
+    """Every item whose UUID orders the saved file, in a deterministic (file) order."""
+    for fp in board.GetFootprints():
+        yield fp
+        yield from fp.Pads()
+        yield from fp.GraphicalItems()
+        yield from fp.Zones()
+    yield from board.GetDrawings()
+    yield from board.Zones()
+    yield from board.GetTracks()
+
+
+def dedupe_uuids(board) -> int:
+    """Makes every UUID unique; returns how many were changed.
+
+    Legacy boards often give many footprints the same time stamp (e.g. 0), which becomes the
+    same UUID. KiCad's writer orders items by UUID and breaks ties by memory address, so such
+    a board would be saved in a different order from run to run. Each repeat of a UUID is
+    incremented (KIID.Increment, in file order) until it is unused: deterministic, and only
+    the UUIDs change.
+    """
+    items = list(_items(board))
+    used = {item.m_Uuid.AsString() for item in items}
+    seen: set[str] = set()
+    changed = 0
+    for item in items:
+        uid = item.m_Uuid.AsString()
+        if uid in seen:
+            while item.m_Uuid.AsString() in used:
+                item.m_Uuid.Increment()
+            uid = item.m_Uuid.AsString()
+            used.add(uid)
+            changed += 1
+        seen.add(uid)
+    return changed
+
+
 def _facts(board) -> dict:
     pcbnew = _pcbnew()
     layers = board.GetCopperLayerCount()
@@ -120,7 +157,67 @@ def _facts(board) -> dict:
     }
 
 
-def process_board(source_path: str, seed: int, compat: dict) -> dict:
+_WARM = False
+_WARM_BOARD = """(kicad_pcb (version 20171130) (host pcbnew "(5.1.12)")
+  (general (thickness 1.6))
+  (layers (0 F.Cu signal) (31 B.Cu signal) (44 Edge.Cuts user))
+  (net 0 "") (net 1 N1)
+  (net_class Default "default" (clearance 0.2) (trace_width 0.25) (add_net N1))
+  (module P1 (layer F.Cu) (tedit 0) (tstamp 0) (at 5 5)
+    (fp_text reference P1 (at 0 0) (layer F.Fab) (effects (font (size 1 1) (thickness 0.15))))
+    (pad 1 smd rect (at 0 0) (size 1 1) (layers F.Cu) (net 1 N1)))
+  (module P2 (layer F.Cu) (tedit 0) (tstamp 0) (at 15 5)
+    (pad 1 smd rect (at 0 0) (size 1 1) (layers F.Cu) (net 1 N1)))
+  (segment (start 5 5) (end 15 5) (width 0.25) (layer F.Cu) (net 1))
+  (gr_line (start 0 0) (end 20 0) (layer Edge.Cuts) (width 0.05))
+  (gr_line (start 20 0) (end 20 10) (layer Edge.Cuts) (width 0.05))
+  (gr_line (start 20 10) (end 0 10) (layer Edge.Cuts) (width 0.05))
+  (gr_line (start 0 10) (end 0 0) (layer Edge.Cuts) (width 0.05))
+)
+"""
+
+
+def warm_up(compat: dict) -> None:
+    """Runs the whole pipeline once on a tiny board in a fresh worker.
+
+    KiCad initialises some objects lazily on first use, and that draws UUIDs from the seeded
+    generator; without this, the first board a worker handles would get different UUIDs
+    than the same board handled later (and a resumed build would not be byte-identical).
+    """
+    global _WARM
+    if _WARM:
+        return
+    _WARM = True
+    folder = tempfile.mkdtemp(prefix="pcbdata-d3-warm-")
+    try:
+        path = os.path.join(folder, "warm.kicad_pcb")
+        with open(path, "w", encoding="utf-8") as handle:
+            handle.write(_WARM_BOARD)
+        process_board(path, 1, compat)
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def check_project(project: dict, skip_checks) -> dict:
+    """The project the revalidation DRC runs with: `project` with every check of
+    `skip_checks` whose severity there is "warning" or "ignore" set to "ignore".
+
+    Only error-severity violations and unconnected items decide whether a board is kept, so
+    skipping warning-only checks (silk, text, library parity, ...) cannot change a verdict;
+    it halves the DRC time. A check the project makes an error is always run.
+    """
+    import copy
+
+    out = copy.deepcopy(project)
+    severities = out.setdefault("board", {}).setdefault("design_settings", {}).setdefault(
+        "rule_severities", {})
+    for name in skip_checks:
+        if severities.get(name, "error") in ("warning", "ignore"):  # absent: run it
+            severities[name] = "ignore"
+    return out
+
+
+def process_board(source_path: str, seed: int, compat: dict, skip_checks=()) -> dict:
     """Upgrades, patches, revalidates and strips one source board.
 
     Returns plain data: `stage` (the step reached or failed at: load, upgrade, compat, drc,
@@ -133,6 +230,7 @@ def process_board(source_path: str, seed: int, compat: dict) -> dict:
     from pcbdata.engine.drc_report import parse_drc_report
 
     pcbnew = _pcbnew()
+    warm_up(compat)
     result: dict = {"stage": "load", "error": "", "timings": {}}
     work = tempfile.mkdtemp(prefix="pcbdata-d3-")
     clock = time.perf_counter()
@@ -157,6 +255,7 @@ def process_board(source_path: str, seed: int, compat: dict) -> dict:
         lap("load")
 
         result["stage"] = "upgrade"
+        result["uuids_fixed"] = dedupe_uuids(board)
         up_dir = os.path.join(work, "upgraded")
         os.makedirs(up_dir)
         up_board = os.path.join(up_dir, BOARD)
@@ -186,7 +285,8 @@ def process_board(source_path: str, seed: int, compat: dict) -> dict:
                 spacing = float(compat["spacing_probe_mm"])
         patched = patch_project(project, compat, spacing)
         project_text = dumps_project(patched)
-        check_path = _stage(os.path.join(work, "check"), board_bytes, project_text)
+        check_path = _stage(os.path.join(work, "check"), board_bytes,
+                            dumps_project(check_project(patched, skip_checks)))
         after = _sha(check_path)
         result["compat"] = {"board_sha256_before": before, "board_sha256_after": after,
                             "board_identical": before == after,
@@ -218,7 +318,11 @@ def process_board(source_path: str, seed: int, compat: dict) -> dict:
         del bare
         with open(os.path.join(bare_dir, PROJECT), "w", encoding="utf-8") as handle:
             handle.write(project_text)
-        reloaded = _load(bare_path, seed)  # the task must load as it ships
+        try:
+            reloaded = _load(bare_path, seed)  # the task must load as it ships
+        except Exception as exc:  # noqa: BLE001
+            result["error"] = f"bare: the bare board does not load again ({exc})"
+            return result
         result["bare_facts"] = _facts(reloaded)
         del reloaded
         with open(bare_path, "rb") as handle:

@@ -1,0 +1,123 @@
+"""Characteristics table, tiers and evaluation picks (SPEC section 3, steps 4-6). Pure data."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+COLUMNS = ["board_id", "name", "nets", "components", "pads", "layers", "tier", "in_test"]
+CONFIGS = {"A": "d3-a", "B": "d3-b", "C": "d3-c"}
+
+
+@dataclass
+class Row:
+    name: str
+    nets: int
+    components: int
+    pads: int
+    layers: int
+    row: int = 0
+    tier: str = ""
+    in_test: bool = False
+
+    @property
+    def board_id(self) -> str:
+        return f"{self.row:04d}_{self.name}"
+
+
+def number_rows(rows: list[Row]) -> list[Row]:
+    """Sorts by (pads, nets, components, name) and numbers the rows from 1."""
+    ordered = sorted(rows, key=lambda r: (r.pads, r.nets, r.components, r.name))
+    for index, row in enumerate(ordered, start=1):
+        row.row = index
+    return ordered
+
+
+def assign_tiers(rows: list[Row], a_size: int, b_max_pads: int) -> dict[str, list[Row]]:
+    """D3-A = the first `a_size` rows; of the rest, B = pads <= b_max_pads, C = the others."""
+    tiers: dict[str, list[Row]] = {"A": [], "B": [], "C": []}
+    for index, row in enumerate(rows):
+        row.tier = "A" if index < a_size else ("B" if row.pads <= b_max_pads else "C")
+        tiers[row.tier].append(row)
+    return tiers
+
+
+def array_split(items: list, parts: int) -> list[list]:
+    """numpy.array_split semantics: the first len % parts chunks get one extra item."""
+    if parts < 1:
+        raise ValueError("parts must be >= 1")
+    size, extra = divmod(len(items), parts)
+    chunks, start = [], 0
+    for index in range(parts):
+        end = start + size + (1 if index < extra else 0)
+        chunks.append(items[start:end])
+        start = end
+    return chunks
+
+
+def picks(rows: list[Row], bins: int, layers: int | None = 2,
+          trim_fraction: float = 0.0) -> list[Row]:
+    """The evaluation subset of a tier.
+
+    Keeps boards with `layers` copper layers (None: all), sorts by (pads, nets, name), drops
+    the largest round(trim_fraction * n) by that order, cuts the rest into `bins` near-equal
+    bins (numpy array_split) and takes each non-empty bin's lower median ((len - 1) // 2).
+    """
+    pool = [r for r in rows if layers is None or r.layers == layers]
+    pool.sort(key=lambda r: (r.pads, r.nets, r.name))
+    trim = round(trim_fraction * len(pool))
+    if trim:
+        pool = pool[: len(pool) - trim]
+    return [chunk[(len(chunk) - 1) // 2] for chunk in array_split(pool, bins) if chunk]
+
+
+def apply_replacements(chosen: list[Row], tier_rows: list[Row], config: str,
+                       overrides: list[dict]) -> tuple[list[Row], list[dict]]:
+    """Applies `replace_pick` overrides of `config`; returns (picks, applied/unapplied notes)."""
+    by_name = {r.name: r for r in tier_rows}
+    out = list(chosen)
+    notes = []
+    for o in overrides:
+        if o.get("config") != config:
+            continue
+        names = [r.name for r in out]
+        if o["board"] not in names:
+            notes.append({**o, "applied": False, "why": "board is not a computed pick"})
+        elif o["replacement"] not in by_name:
+            notes.append({**o, "applied": False, "why": "replacement is not in the tier"})
+        elif o["replacement"] in names:
+            notes.append({**o, "applied": False, "why": "replacement is already a pick"})
+        else:
+            out[names.index(o["board"])] = by_name[o["replacement"]]
+            notes.append({**o, "applied": True, "why": ""})
+    return out, notes
+
+
+def evaluation_subsets(tiers: dict[str, list[Row]], recipe,
+                       unloadable: set[str] = frozenset()) -> tuple[dict[str, list[Row]], list]:
+    """Test subsets per tier, in table order, with the recipe's overrides applied."""
+    p = recipe["picks"]
+    notes: list[dict] = []
+    leave_out = {o["board"]: o for o in recipe.overrides("exclude_from_test")
+                 if o.get("config", "d3-a") == "d3-a"}
+    subset_a = []
+    for r in tiers["A"]:
+        if r.name in leave_out or r.name in unloadable:
+            continue
+        subset_a.append(r)
+    for name, o in leave_out.items():
+        notes.append({**o, "applied": any(r.name == name for r in tiers["A"]),
+                      "why": "" if any(r.name == name for r in tiers["A"]) else
+                      "board is not in the tier"})
+    subsets = {"A": subset_a}
+    for tier, trim in (("B", 0.0), ("C", float(p["c_trim_fraction"]))):
+        chosen = picks(tiers[tier], int(p["bins"]), p.get("layers"), trim)
+        chosen, more = apply_replacements(chosen, tiers[tier], CONFIGS[tier],
+                                          recipe.overrides("replace_pick"))
+        notes.extend(more)
+        # exclude_from_test overrides for B/C configs drop picks too
+        drop = {o["board"] for o in recipe.overrides("exclude_from_test")
+                if o.get("config") == CONFIGS[tier]}
+        subsets[tier] = sorted((r for r in chosen if r.name not in drop), key=lambda r: r.row)
+    for rows in subsets.values():
+        for r in rows:
+            r.in_test = True
+    return subsets, notes

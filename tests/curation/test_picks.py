@@ -1,0 +1,121 @@
+"""Characteristics order, tiers and evaluation picks against hand-computed cases."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pcbdata.curation.picks import Row, apply_replacements, array_split, assign_tiers, \
+    evaluation_subsets, number_rows, picks
+from pcbdata.curation.recipe import load_recipe, parse_recipe
+
+
+def rows(spec):
+    """spec: list of (name, pads, nets, components, layers)."""
+    return [Row(name=n, pads=p, nets=k, components=c, layers=l) for n, p, k, c, l in spec]
+
+
+@pytest.mark.parametrize("n", range(0, 23))
+@pytest.mark.parametrize("parts", [1, 2, 3, 10])
+def test_array_split_matches_numpy(n, parts):
+    assert array_split(list(range(n)), parts) == [list(c) for c in
+                                                  np.array_split(np.arange(n), parts)]
+
+
+def test_rows_sorted_by_pads_nets_components_name_and_numbered_from_one():
+    table = number_rows(rows([("b", 10, 5, 3, 2), ("a", 10, 5, 3, 2), ("c", 10, 4, 9, 2),
+                              ("d", 8, 9, 9, 4), ("e", 10, 5, 2, 2)]))
+    assert [(r.row, r.name) for r in table] == [(1, "d"), (2, "c"), (3, "e"), (4, "a"), (5, "b")]
+    assert table[0].board_id == "0001_d"
+
+
+def test_tiers_first_rows_then_pad_threshold():
+    table = number_rows(rows([(f"x{i}", i, 1, 1, 2) for i in range(1, 9)]))
+    tiers = assign_tiers(table, a_size=3, b_max_pads=5)
+    assert [r.name for r in tiers["A"]] == ["x1", "x2", "x3"]
+    assert [r.name for r in tiers["B"]] == ["x4", "x5"]
+    assert [r.name for r in tiers["C"]] == ["x6", "x7", "x8"]
+    # a small pad count after the first rows still goes by the threshold (here none)
+    assert all(r.tier == "C" for r in tiers["C"])
+
+
+def test_picks_bins_and_lower_median():
+    # 7 two-layer boards, 3 bins -> array_split sizes 3, 2, 2 -> lower medians 1, 0, 0
+    tier = rows([(f"b{p}", p, 1, 1, 2) for p in (10, 11, 12, 13, 14, 15, 16)])
+    assert [r.name for r in picks(tier, bins=3)] == ["b11", "b13", "b15"]
+    # 4 per bin -> index (4 - 1) // 2 = 1: the lower of the two middle boards
+    tier = rows([(f"b{p}", p, 1, 1, 2) for p in range(1, 9)])
+    assert [r.name for r in picks(tier, bins=2)] == ["b2", "b6"]
+
+
+def test_picks_keep_two_layer_boards_only_and_sort_by_pads_nets_name():
+    tier = rows([("four", 5, 1, 1, 4), ("z", 6, 2, 1, 2), ("y", 6, 2, 1, 2), ("x", 6, 1, 1, 2),
+                 ("w", 7, 1, 1, 2)])
+    # two-layer, sorted: x (6,1), y (6,2,"y"), z (6,2,"z"), w (7) -> 1 bin of 4 -> index 1
+    assert [r.name for r in picks(tier, bins=1)] == ["y"]
+    assert [r.name for r in picks(tier, bins=1, layers=None)] == ["y"]  # four first: (5) -> y
+    assert [r.name for r in picks(tier, bins=4)] == ["x", "y", "z", "w"]
+
+
+def test_picks_trim_largest_ten_percent_round_half_even():
+    tier = rows([(f"c{p:03d}", p, 1, 1, 2) for p in range(101, 126)])  # 25 boards
+    # round(2.5) = 2 -> drop c124, c125; 23 left in 10 bins: sizes 3,3,3,2,2,2,2,2,2,2
+    chosen = picks(tier, bins=10, trim_fraction=0.1)
+    assert [r.pads for r in chosen] == [102, 105, 108, 110, 112, 114, 116, 118, 120, 122]
+    tier15 = rows([(f"c{p:03d}", p, 1, 1, 2) for p in range(1, 16)])  # round(1.5) = 2
+    assert picks(tier15, bins=1, trim_fraction=0.1)[0].pads == 7  # 13 left, index 6
+
+
+def test_fewer_boards_than_bins_takes_each_board():
+    tier = rows([("a", 1, 1, 1, 2), ("b", 2, 1, 1, 2)])
+    assert [r.name for r in picks(tier, bins=10)] == ["a", "b"]
+    assert picks([], bins=10) == []
+
+
+def test_replacement_override_applies_only_to_a_computed_pick_in_the_tier():
+    tier = rows([("p", 1, 1, 1, 2), ("q", 1, 1, 1, 2), ("r", 2, 1, 1, 2)])
+    chosen = [tier[0]]
+    o = {"kind": "replace_pick", "config": "d3-b", "board": "p", "replacement": "q",
+         "reason": "t"}
+    out, notes = apply_replacements(chosen, tier, "d3-b", [o])
+    assert [r.name for r in out] == ["q"] and notes[0]["applied"]
+    out, notes = apply_replacements(chosen, tier, "d3-b", [{**o, "board": "r"}])
+    assert [r.name for r in out] == ["p"] and not notes[0]["applied"]
+    out, notes = apply_replacements(chosen, tier, "d3-b", [{**o, "replacement": "nope"}])
+    assert not notes[0]["applied"]
+    assert apply_replacements(chosen, tier, "d3-c", [o]) == (chosen, [])
+
+
+def test_evaluation_subsets_with_the_published_overrides():
+    recipe = load_recipe()
+    a = [("karabas-nano_wifi_revA", 1, 1, 1, 2)] + [(f"a{i}", 1 + i, 1, 1, 2) for i in range(3)]
+    b = [("badge2016_Badge_init", 93, 20, 650, 2), ("cat-trainer_teensy_base_pcb", 93, 26, 28, 2)]
+    table = number_rows(rows(a + b))
+    tiers = {"A": table[:4], "B": table[4:], "C": []}
+    subsets, notes = evaluation_subsets(tiers, recipe)
+    assert "karabas-nano_wifi_revA" not in [r.name for r in subsets["A"]]
+    assert len(subsets["A"]) == 3
+    # two boards in 10 bins: both are picks, so the replacement is already a pick and the
+    # override is reported as not applied
+    assert {n["board"]: n["applied"] for n in notes}["badge2016_Badge_init"] is False
+
+
+def test_published_replacement_in_its_bin():
+    recipe = load_recipe()
+    # 20 boards in B, 10 bins of 2, lower median = first of each bin; badge is the first of
+    # bin 0 and cat-trainer the second (same pads, more nets) -> cat-trainer replaces it
+    spec = [("badge2016_Badge_init", 93, 20, 650, 2), ("cat-trainer_teensy_base_pcb", 93, 26, 28, 2)]
+    spec += [(f"b{i:02d}", 94 + i, 1, 1, 2) for i in range(18)]
+    table = number_rows(rows(spec))
+    subsets, notes = evaluation_subsets({"A": [], "B": table, "C": []}, recipe)
+    names = [r.name for r in subsets["B"]]
+    assert "cat-trainer_teensy_base_pcb" in names and "badge2016_Badge_init" not in names
+    assert len(names) == 10
+    applied = [n for n in notes if n["kind"] == "replace_pick"]
+    assert applied[0]["applied"] is True
+
+
+def test_recipe_rejects_overrides_without_reason():
+    raw = load_recipe().text + b'\n[[overrides]]\nkind = "exclude"\nboard = "x"\nreason = ""\n'
+    from pcbdata.errors import UserError
+    with pytest.raises(UserError, match="reason"):
+        parse_recipe(raw, "bad.toml")

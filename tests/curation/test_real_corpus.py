@@ -1,0 +1,118 @@
+"""Real-corpus tier: a CI-sized subset of the shared PCBench snapshot, built with the packaged
+recipe; pins each board's fate and the order of the characteristics table.
+
+The snapshot is unpacked at run time from ../shared/pcbench/pcbench.tar.xz (never copied into
+the repository). Set PCBDATA_REGEN_D3_PINS=1 to rewrite the pins after a deliberate change.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import os
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import SHARED_PCBENCH
+
+PINS = Path(__file__).parent / "data" / "real_subset_expected.json"
+SMALLEST = 150   # the boards with the fewest terminal pads ...
+SPREAD_EVERY = 25  # ... plus every 25th of the others by pads
+
+
+def _subset(checkout: Path) -> list[str]:
+    from pcbdata.curation.corpus import read_routing
+
+    sizes = []
+    for folder in sorted((checkout / "PCBs").iterdir()):
+        if not folder.is_dir():
+            continue
+        try:
+            pads = read_routing(folder / "final.json")[1]
+        except (OSError, ValueError):
+            pads = -1
+        sizes.append((pads, folder.name, (folder / "processed.kicad_pcb").is_file()))
+    sizes.sort()
+    chosen = [name for _, name, _ in sizes[:SMALLEST]]
+    chosen += [name for _, name, _ in sizes[SMALLEST::SPREAD_EVERY]]
+    chosen += [name for _, name, present in sizes if not present]  # the 7 missing boards
+    return sorted(set(chosen))
+
+
+@pytest.fixture(scope="session")
+def real_subset(tmp_path_factory, engine_pool):
+    if not SHARED_PCBENCH.is_file():
+        pytest.skip(f"real-corpus tests need the PCBench snapshot at {SHARED_PCBENCH} "
+                    f"(absent on this machine)")
+    from pcbdata.curation.build import build
+    from pcbdata.curation.recipe import load_recipe
+
+    root = tmp_path_factory.mktemp("pcbench")
+    (root / "full").mkdir()
+    subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(root / "full")], check=True)
+    full = root / "full"
+    names = _subset(full)
+    sub = root / "subset"
+    (sub / "PCBs").mkdir(parents=True)
+    for name in names:
+        (sub / "PCBs" / name).symlink_to(full / "PCBs" / name, target_is_directory=True)
+    (sub / "github_meta").symlink_to(full / "github_meta", target_is_directory=True)
+    (sub / "LICENSE").symlink_to(full / "LICENSE")
+    out = root / "out"
+    summary = build(sub, out, load_recipe(), pool=engine_pool, log=lambda line: None)
+    return {"out": out, "summary": summary, "names": names}
+
+
+def _observed(real_subset) -> dict:
+    with open(real_subset["out"] / "curation_report.csv", newline="", encoding="utf-8") as h:
+        fates = {r["name"]: [r["fate"], r["error_types"]] for r in csv.DictReader(h)}
+    with open(real_subset["out"] / "characteristics.csv", newline="", encoding="utf-8") as h:
+        table = [[r["board_id"], r["pads"], r["nets"], r["components"], r["layers"], r["tier"],
+                  r["in_test"]] for r in csv.DictReader(h)]
+    return {"subset": real_subset["names"], "fates": fates, "characteristics": table,
+            "summary": {"fates": real_subset["summary"]["fates"],
+                        "tiers": real_subset["summary"]["tiers"]}}
+
+
+@pytest.mark.slow
+def test_real_subset_fates_and_table_are_pinned(real_subset):
+    observed = _observed(real_subset)
+    if os.environ.get("PCBDATA_REGEN_D3_PINS") == "1" or not PINS.is_file():
+        PINS.write_text(json.dumps(observed, indent=1, sort_keys=True, ensure_ascii=False)
+                        + "\n", encoding="utf-8")
+        if os.environ.get("PCBDATA_REGEN_D3_PINS") != "1":
+            pytest.fail(f"no pins yet: wrote {PINS}; review and commit it")
+    expected = json.loads(PINS.read_text(encoding="utf-8"))
+    assert observed["subset"] == expected["subset"]
+    assert observed["fates"] == expected["fates"]
+    assert observed["characteristics"] == expected["characteristics"]
+    assert observed["summary"] == expected["summary"]
+
+
+@pytest.mark.slow
+def test_real_subset_reports_the_seven_missing_boards(real_subset):
+    fates = _observed(real_subset)["fates"]
+    missing = sorted(n for n, (fate, _) in fates.items() if fate == "missing_input")
+    assert missing == ["Atreus_54percent_rev", "LargeWordClock_LargeKickstarter",
+                       "ToslinkCNC_Toslink PlanetCNC ECO shield", "TurbiGnUSB_Turbidignusb",
+                       "elec-power-bms_OSBMS Balancer Rev1", "elec-power-bms_rLoopPowerBms",
+                       "pcb_HDMI2RGB_HDMI2RGB"]
+
+
+@pytest.mark.slow
+def test_real_subset_manifest_lists_every_file(real_subset):
+    from pcbdata.fsutil import sha256_file
+
+    out = real_subset["out"]
+    manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
+    n = 0
+    for config, entry in manifest["configs"].items():
+        for split, data in entry["splits"].items():
+            folder = out / config / split
+            assert sorted(p.name for p in folder.iterdir()) == sorted(data["boards"])
+            for board_id, board in data["boards"].items():
+                for name, sha in board["files"].items():
+                    assert sha256_file(folder / board_id / name) == sha
+                    n += 1
+    assert n > 0
