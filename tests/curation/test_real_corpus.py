@@ -116,3 +116,26 @@ def test_real_subset_manifest_lists_every_file(real_subset):
                     assert sha256_file(folder / board_id / name) == sha
                     n += 1
     assert n > 0
+
+
+@pytest.mark.slow
+def test_real_subset_boards_match_the_released_d3_manifests(real_subset):
+    """Every kept board of the subset build has the bytes the committed release records:
+    a change to the curation that alters a released board cannot land unnoticed."""
+    import gzip
+
+    from tests.conftest import REPO_ROOT
+
+    released = {}
+    for config in ("d3-a", "d3-b", "d3-c"):
+        data = json.loads(gzip.decompress((REPO_ROOT / "manifests" / f"{config}.json.gz").read_bytes()))
+        for board in data["configs"][config]["splits"]["full"]["boards"].values():
+            released[board["name"]] = board["files"]
+    built = json.loads((real_subset["out"] / "manifest.json").read_text())
+    compared = 0
+    for config in built["configs"].values():
+        for board in config["splits"]["full"]["boards"].values():
+            assert board["name"] in released, f"{board['name']}: kept here, not in the release"
+            assert board["files"] == released[board["name"]], f"{board['name']}: files differ"
+            compared += 1
+    assert compared >= 100
