@@ -7,6 +7,10 @@ VERB = "eval"
 HELP = "score routed boards against a built board set (CP, Pot., Rout., DRV, WL, Via, Time)"
 
 
+def default_workers() -> int:
+    return max(1, min(16, 4 * (os.cpu_count() or 1)))
+
+
 def register(parser) -> None:
     parser.add_argument("dir", metavar="DIR", help="a built board set (holds manifest.json)")
     parser.add_argument("--config", required=True, help="config name, e.g. d2, d1-g10, d3-a")
@@ -18,11 +22,14 @@ def register(parser) -> None:
                         help="score the set's reference boards (D3) instead of a submission")
     parser.add_argument("--out", required=True, metavar="REPORT", help="report folder (resumable)")
     parser.add_argument("--k", type=int, default=5, help="rollouts per board (default: 5)")
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
-                        help="KiCad worker processes (default: CPU count)")
+    parser.add_argument("--workers", type=int, default=default_workers(),
+                        help="KiCad worker processes (default: 4 per core, at most 16: KiCad's "
+                             "DRC spends most of a small board's time waiting, not computing)")
     parser.add_argument("--name", help="method name in the table (default: RUNS folder name)")
     parser.add_argument("--timeout", type=float, default=300.0,
                         help="seconds allowed per board (default: 300)")
+    parser.add_argument("--limit", type=int, metavar="N",
+                        help="score only the first N boards of the split (board-id order)")
     parser.add_argument("--lw", type=float, default=0.002, help="potential weight per mm of WL")
     parser.add_argument("--lv", type=float, default=0.1, help="potential weight per via")
     parser.set_defaults(run=run)
@@ -35,6 +42,6 @@ def run(args) -> int:
     result = evaluate_set(args.dir, args.config, args.split, args.out, runs=args.runs,
                           k=args.k, reference=args.reference, workers=args.workers,
                           weights=Weights(lw=args.lw, lv=args.lv), name=args.name,
-                          task_timeout=args.timeout)
+                          task_timeout=args.timeout, limit=args.limit)
     print(result["table"], end="")
     return 0

@@ -13,6 +13,12 @@ import tempfile
 from pcbdata.engine.drc_report import parse_drc_report
 
 PROJECT_SUFFIXES = (".kicad_pro", ".kicad_dru")
+#: Design settings stored in the `.kicad_pcb` itself (its `setup` section): a submission must
+#: not change them (e.g. a larger solder-mask expansion hides solder_mask_bridge errors).
+BOARD_FILE_RULES = ("m_SolderMaskExpansion", "m_SolderMaskMinWidth",
+                    "m_SolderMaskToCopperClearance", "m_AllowSoldermaskBridgesInFPs",
+                    "m_SolderPasteMargin", "m_SolderPasteMarginRatio", "m_TentViasFront",
+                    "m_TentViasBack")
 
 
 def _pcbnew():
@@ -81,6 +87,11 @@ def fingerprint(board) -> dict[str, list[str]]:
         (outline if layer == edge else copper_drawings).append(text)
     rules = [f"copper_layers={board.GetCopperLayerCount()}",
              f"enabled_layers={','.join(str(n) for n in board.GetEnabledLayers().Seq())}"]
+    settings = board.GetDesignSettings()  # the rules a board file (not its project) carries
+    for name in BOARD_FILE_RULES:
+        if hasattr(settings, name):
+            rules.append(f"{name}={getattr(settings, name)}")
+    rules.append(f"thickness={settings.GetBoardThickness()}")
     return {"nets": nets, "footprints": sorted(footprints), "pads": sorted(pads),
             "zones": sorted(zones), "outline": sorted(outline),
             "copper_drawings": sorted(copper_drawings), "rules": rules}
@@ -96,8 +107,7 @@ def _pad_size(pad):
 
 def pad_clusters(board) -> dict[str, int]:
     """Per net name: the number of connected copper clusters of that net holding >= 1 pad."""
-    board.BuildConnectivity()
-    conn = board.GetConnectivity()
+    conn = board.GetConnectivity()  # built by LoadBoard
     parent: dict[str, str] = {}
 
     def find(key: str) -> str:
@@ -113,13 +123,18 @@ def pad_clusters(board) -> dict[str, int]:
         if ra != rb:
             parent[ra] = rb
 
-    items = list(board.GetPads()) + list(board.GetTracks()) + list(board.Zones())
-    for item in items:
-        if item.GetNetCode() <= 0:
+    # Every link touches a track, via or zone, except pad-to-pad contact: tracks and zones ask
+    # for both kinds of neighbours, pads only for pads.
+    items = [(item, True) for item in list(board.GetTracks()) + list(board.Zones())]
+    items += [(pad, False) for pad in board.GetPads()]
+    for item, any_kind in items:
+        net = item.GetNetCode()
+        if net <= 0:
             continue
         key = item.m_Uuid.AsString()
-        net = item.GetNetCode()
-        neighbours = list(conn.GetConnectedTracks(item)) + list(conn.GetConnectedPads(item))
+        neighbours = list(conn.GetConnectedPads(item))
+        if any_kind:
+            neighbours += list(conn.GetConnectedTracks(item))
         for other in neighbours:
             if other.GetNetCode() == net:
                 union(key, other.m_Uuid.AsString())

@@ -32,22 +32,47 @@ def fix_ses_resolution(dsn: bytes, ses: bytes) -> bytes:
     `(unit U)`; a correct SES (coordinates in resolution units) is not touched because its
     coordinates would then be N times larger than the DSN's, which this check detects.
     """
-    unit = _DSN_UNIT.search(dsn)
-    if unit is None:
+    if _DSN_UNIT.search(dsn) is None:
         return ses
-    dsn_placements = re.findall(rb"\(place\s+\S+\s+(-?[\d.]+)\s+(-?[\d.]+)", dsn)
-    ses_placements = re.findall(rb"\(place\s+\S+\s+(-?[\d.]+)\s+(-?[\d.]+)", ses)
-    if dsn_placements and ses_placements:
-        first_dsn = max(abs(float(dsn_placements[0][0])), 1e-9)
-        if abs(abs(float(ses_placements[0][0])) / first_dsn - 1) > 0.01:
-            return ses  # SES coordinates are scaled: they already follow its resolution
+    place = re.compile(rb"\(place\s+(\S+)\s+(-?[\d.]+)\s+(-?[\d.]+)")
+    dsn_x = {m.group(1): float(m.group(2)) for m in place.finditer(dsn)}
+    for m in place.finditer(ses):
+        x_dsn = dsn_x.get(m.group(1))
+        if x_dsn is not None and abs(x_dsn) > 1:
+            if abs(float(m.group(2)) / x_dsn - 1) > 0.01:
+                return ses  # SES coordinates are scaled: they already follow its resolution
+            break
     return _RESOLUTION.sub(lambda m: b"(resolution " + m.group(1) + b" 1)", ses)
 
 
+def strip_ses_placement(ses: str) -> str:
+    """Removes the `(placement ...)` section of an SES session: routers echo the components'
+    placement (freeroute rounds it to 1 um), and KiCad's import would move footprints to it -
+    which the evaluator's integrity check rightly rejects. Routing never moves components."""
+    match = re.search(r"\(placement\s", ses)
+    if match is None:
+        return ses
+    depth, quoted = 0, False
+    for i in range(match.start(), len(ses)):
+        c = ses[i]
+        if c == '"':
+            quoted = not quoted
+        elif not quoted and c == "(":
+            depth += 1
+        elif not quoted and c == ")":
+            depth -= 1
+            if depth == 0:
+                return ses[:match.start()] + ses[i + 1:]
+    return ses
+
+
 def route_board(board_path: str, instance_dir: str, out_path: str, command: list[str],
-                router_timeout: float, fix_resolution: bool = False) -> dict:
+                router_timeout: float, fix_resolution: bool = False,
+                flip_back: bool = False) -> dict:
     """Exports the board as DSN, runs `command` on it, imports the SES and saves the routed
-    board to `out_path`. Returns {ok, reason, seconds, router_seconds, tracks, vias}."""
+    board to `out_path`. `fix_resolution` and `flip_back` work around two freeroute defects
+    (see `fix_ses_resolution` and `pcbdata.router.dsn_flip`).
+    Returns {ok, reason, seconds, router_seconds, tracks, vias}."""
     pcbnew = _pcbnew()
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="pcbdata-route-") as tmp:
@@ -56,10 +81,19 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         dsn, ses = os.path.join(tmp, "board.dsn"), os.path.join(tmp, "board.ses")
         if not pcbnew.ExportSpecctraDSN(board, dsn):
             return {"ok": False, "reason": "KiCad could not export the DSN file"}
+        back_refs: set[str] = set()
+        if flip_back:
+            from pcbdata.router.dsn_flip import flip_back_components
+
+            with open(dsn, encoding="utf-8") as handle:
+                text, back_refs = flip_back_components(handle.read())
+            with open(dsn, "w", encoding="utf-8") as handle:
+                handle.write(text)
         argv = [a.replace("{dsn}", dsn).replace("{ses}", ses) for a in command]
         router_start = time.perf_counter()
         try:
-            result = subprocess.run(argv, capture_output=True, timeout=router_timeout, cwd=tmp)
+            result = subprocess.run(argv, capture_output=True, timeout=router_timeout, cwd=tmp,
+                                    preexec_fn=_die_with_parent)
         except subprocess.TimeoutExpired:
             return {"ok": False, "reason": f"router exceeded {router_timeout:g} s",
                     "seconds": time.perf_counter() - start, "router_seconds": router_timeout}
@@ -77,6 +111,17 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
                 fixed = fix_ses_resolution(dsn_bytes, handle.read())
             with open(ses, "wb") as handle:
                 handle.write(fixed)
+        if back_refs:
+            from pcbdata.router.dsn_flip import restore_back_placements
+
+            with open(ses, encoding="utf-8") as handle:
+                text = restore_back_placements(handle.read(), back_refs)
+            with open(ses, "w", encoding="utf-8") as handle:
+                handle.write(text)
+        with open(ses, encoding="utf-8", errors="replace") as handle:
+            text = strip_ses_placement(handle.read())
+        with open(ses, "w", encoding="utf-8") as handle:
+            handle.write(text)
         if not pcbnew.ImportSpecctraSES(board, ses):
             return {"ok": False, "reason": "KiCad could not import the SES file"}
         tracks = vias = 0
@@ -91,6 +136,17 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         os.replace(saved, out_path) if _same_fs(saved, out_path) else _copy(saved, out_path)
         return {"ok": True, "reason": "", "seconds": time.perf_counter() - start,
                 "router_seconds": router_seconds, "tracks": tracks, "vias": vias}
+
+
+def _die_with_parent() -> None:
+    """In the router's process: ask Linux to kill it if the engine worker dies (time limit)."""
+    try:
+        import ctypes
+        import signal
+
+        ctypes.CDLL("libc.so.6", use_errno=True).prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+    except (OSError, AttributeError):
+        pass
 
 
 def _same_fs(a: str, b: str) -> bool:

@@ -3,14 +3,15 @@
 Compares the fingerprint of the routed board with the instance's (see
 `pcbdata.engine.scoring.fingerprint`): nets, footprints, pads (position, shape, size, drill,
 layers, net), zones (outline, layers, net, priority), board outline (Edge.Cuts), drawings on
-copper layers and the layer set. Any difference makes the rollout invalid, with the reason.
+copper layers, the layer set and the design settings the board file carries (solder mask,
+paste, via tenting, thickness); the design rules themselves come from the instance's project. Any difference makes the rollout invalid, with the reason.
 """
 from __future__ import annotations
 
 CATEGORIES = ("nets", "footprints", "pads", "zones", "outline", "copper_drawings", "rules")
 _LABELS = {"nets": "nets", "footprints": "footprints", "pads": "pads", "zones": "zones",
            "outline": "board outline", "copper_drawings": "drawings on copper layers",
-           "rules": "layer stack"}
+           "rules": "rules (layer stack or board-file design settings)"}
 
 
 def integrity_problems(bare: dict[str, list[str]], routed: dict[str, list[str]]) -> list[str]:

@@ -2,11 +2,14 @@
 
 Layout of a submission (RUNS): `<board_id>/<rollout>.kicad_pcb`, optionally with
 `<rollout>.json` holding the method's wall time (`time_s`, or `time` / `seconds`) and any other
-fields. Rollouts are ordered by name (natural order: 2 before 10); the first k are scored.
+fields; a `<rollout>.json` without its board is a rollout that produced no board (Parse-fail,
+its time still counts). Rollouts are ordered by name (natural order: 2 before 10); the first k
+are scored. A board with no rollout at all gets one Parse-fail rollout named `missing`.
 """
 from __future__ import annotations
 
 import csv
+import hashlib
 import io
 import json
 import math
@@ -63,15 +66,13 @@ def list_rollouts(runs: Path, board_id: str, k: int) -> list[tuple[str, Path]]:
     folder = runs / board_id
     if not folder.is_dir():
         return []
-    files = sorted(folder.glob("*.kicad_pcb"), key=lambda p: natural_key(p.stem))
-    return [(p.stem, p) for p in files[:k]]
+    stems = {p.stem for p in folder.glob("*.kicad_pcb")} | {p.stem for p in folder.glob("*.json")}
+    return [(stem, folder / f"{stem}.kicad_pcb") for stem in sorted(stems, key=natural_key)[:k]]
 
 
 def cache_key(instance_key: str, routed_hash: str, weights: Weights) -> str:
     text = json.dumps([EVALUATOR_VERSION, instance_key, routed_hash, weights.as_dict()],
                       sort_keys=True)
-    import hashlib
-
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -146,13 +147,13 @@ def _fmt(value, digits: int = 2) -> str:
 
 def markdown_table(summaries: list[tuple[str, dict]]) -> str:
     """The results table in the benchmark paper's shape (one row per method)."""
-    lines = ["| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | Parse-fail (%) | Invalid (%) |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    lines = ["| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | Parse-fail (%) | Parse-fail @1 (%) | Invalid (%) |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, s in summaries:
         pct = lambda v: "-" if v is None else f"{100 * v:.1f}"  # noqa: E731
         lines.append(f"| {name} | {pct(s['cp'])} | {_fmt(s['pot'])} | {_fmt(s['rout'], 3)} | "
                      f"{_fmt(s['drv'])} | {_fmt(s['wl'], 1)} | {_fmt(s['via'])} | {_fmt(s['time'])} | "
-                     f"{pct(s['parse_fail'])} | {pct(s['invalid'])} |")
+                     f"{pct(s['parse_fail'])} | {pct(s['parse_fail_at1'])} | {pct(s['invalid'])} |")
     return "\n".join(lines) + "\n"
 
 
@@ -169,15 +170,17 @@ def _csv(rows: list[dict], columns: list[str]) -> str:
 def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                  runs: str | Path | None = None, k: int = 5, reference: bool = False,
                  workers: int = 1, weights: Weights = DEFAULT_WEIGHTS, name: str | None = None,
-                 task_timeout: float = 300.0, progress: bool = True) -> dict:
+                 task_timeout: float = 300.0, progress: bool = True,
+                 limit: int | None = None) -> dict:
     """Scores a submission (or the reference boards) on one config/split; writes REPORT files
-    and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl`."""
+    and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl`. `limit` scores
+    only the first N boards of the split (in board-id order)."""
     root, out = Path(root), Path(out)
     if k < 1:
         raise UserError("--k must be at least 1")
     if reference == (runs is not None):
         raise UserError("give either RUNS (--runs) or --reference")
-    instances = list_instances(root, config, split)
+    instances = list_instances(root, config, split)[: limit or None]
     plan = []  # (board_id, rollout name, index, instance dir, routed path)
     for board_id, directory in instances:
         if reference:

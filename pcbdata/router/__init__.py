@@ -32,15 +32,15 @@ FREEROUTE_VARIANTS = (
 
 
 def freeroute_available() -> bool:
-    try:
-        import freeroute  # noqa: F401
-    except ImportError:
-        return False
-    return True
+    """Whether freeroute is installed. It only ever runs as a separate process (`python -m
+    freeroute.cli`), never imported into pcbdata (it is GPL-3.0-or-later, pcbdata is MIT)."""
+    import importlib.util
+
+    return importlib.util.find_spec("freeroute") is not None
 
 
 def router_command(router: str, router_cmd: str | None, rollout: int) -> tuple[list[str], bool, str]:
-    """(argv with {dsn}/{ses} placeholders, whether to fix freeroute's SES resolution, label)."""
+    """(argv with {dsn}/{ses} placeholders, whether to apply the freeroute work-arounds, label)."""
     if router_cmd:
         argv = shlex.split(router_cmd)
         if "{dsn}" not in router_cmd or "{ses}" not in router_cmd:
@@ -76,7 +76,7 @@ def route_set(root: str | Path, config: str, split: str, out: str | Path, router
                 skipped += 1
                 continue
             jobs.append((str(directory / "board.kicad_pcb"), str(directory), str(target), argv,
-                         router_timeout, fix))
+                         router_timeout, fix, fix))
             meta.append((board_id, r, label, sidecar))
     counts = {"routed": 0, "failed": 0, "skipped": skipped}
     if progress:

@@ -1,0 +1,129 @@
+"""`pcbdata eval` end to end on a tiny hand-made set: @k, ties, bad files, reports, resume."""
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+
+import pytest
+
+from boards import ROUTE_A, ROUTE_B, base_board, pad, routed, track, write_board, write_instance
+from pcbdata.cli import main
+
+
+@pytest.fixture(scope="module")
+def board_set(tmp_path_factory):
+    root = tmp_path_factory.mktemp("set")
+    for board_id in ("b0", "b1", "b2", "b3"):
+        write_instance(base_board(), root / "d2" / "test" / board_id)
+    return root
+
+
+@pytest.fixture(scope="module")
+def runs(board_set, tmp_path_factory):
+    runs = tmp_path_factory.mktemp("runs") / "my-router"
+    clean = routed(base_board(), [ROUTE_A, ROUTE_B])
+    # b0: two identical clean rollouts (a tie: rollout 0 is kept) and a half-routed one
+    write_board(routed(base_board(), [ROUTE_A]), runs / "b0" / "0.kicad_pcb")
+    write_board(clean, runs / "b0" / "1.kicad_pcb")
+    shutil.copy(runs / "b0" / "1.kicad_pcb", runs / "b0" / "2.kicad_pcb")
+    for i, seconds in enumerate((1.0, 2.0, 3.0)):
+        (runs / "b0" / f"{i}.json").write_text(json.dumps({"time_s": seconds, "note": "x"}))
+    # b1: nothing loads (empty, truncated, no board at all) -> Parse-fail, CP 0, Rout. 0
+    (runs / "b1").mkdir()
+    (runs / "b1" / "0.kicad_pcb").write_text("")
+    text = (runs / "b0" / "1.kicad_pcb").read_text()
+    (runs / "b1" / "1.kicad_pcb").write_text(text[: len(text) // 3])
+    (runs / "b1" / "2.json").write_text(json.dumps({"time_s": 5.0}))  # a rollout with no board
+    (runs / "b1" / "3.kicad_pcb").write_text("{\"not\": \"a board\"}")  # beyond k = 3
+    # b2: an invalid rollout (a pad moved), two dangling-track ones, a clean one named 10
+    # (natural order puts it 4th, beyond k = 3)
+    moved = routed(base_board(pads=[pad(11, 10, "A")] + base_board().pads[1:]), [ROUTE_A, ROUTE_B])
+    write_board(moved, runs / "b2" / "1.kicad_pcb")
+    write_board(routed(base_board(), [ROUTE_A, ROUTE_B, track(30, 10, 30, 20, "A")]),
+                runs / "b2" / "2.kicad_pcb")
+    shutil.copy(runs / "b2" / "2.kicad_pcb", runs / "b2" / "3.kicad_pcb")
+    write_board(clean, runs / "b2" / "10.kicad_pcb")
+    # b3: no submission at all
+    return runs
+
+
+def read_csv(path):
+    with open(path, newline="") as handle:
+        return list(csv.DictReader(handle))
+
+
+def test_eval_reports(board_set, runs, tmp_path, capsys):
+    out = tmp_path / "report"
+    args = [ "eval", str(board_set), "--config", "d2", "--split", "test", "--runs", str(runs),
+            "--out", str(out), "--workers", "2"]
+    assert main(args + ["--k", "3"]) == 0
+    printed = capsys.readouterr().out
+    assert "| my-router |" in printed
+    summary = json.loads((out / "summary.json").read_text())
+    for key in ("n_boards", "k", "cp", "pot", "rout", "drv", "wl", "via", "time", "parse_fail",
+                "parse_fail_at1", "invalid"):
+        assert key in summary
+    assert summary["n_boards"] == 4 and summary["k"] == 3
+    boards = {row["board_id"]: row for row in read_csv(out / "per_board.csv")}
+    assert boards["b0"]["best_rollout"] == "1"  # ties with 2, lower index wins
+    assert boards["b0"]["cp"] == "1" and boards["b0"]["time"] == "2.0"
+    assert boards["b1"]["parse_fail"] == "1" and boards["b1"]["cp"] == "0"
+    assert boards["b1"]["rout"] == "0.0"
+    assert boards["b2"]["best_rollout"] == "2" and boards["b2"]["cp"] == "0"  # tie with 3
+    assert boards["b3"]["parse_fail"] == "1"
+    rollouts = read_csv(out / "per_rollout.csv")
+    assert len(rollouts) == 3 + 3 + 3 + 1
+    by = {(r["board_id"], r["rollout"]): r for r in rollouts}
+    assert by[("b1", "0")]["reason"] == "empty file"
+    assert by[("b1", "1")]["status"] == "parse_fail" and by[("b1", "1")]["reason"]
+    assert by[("b1", "2")]["reason"] == "missing file" and by[("b1", "2")]["time"] == "5.0"
+    assert ("b1", "3") not in by  # beyond k = 3
+    assert by[("b2", "1")]["status"] == "invalid" and "pads changed" in by[("b2", "1")]["reason"]
+    assert by[("b3", "missing")]["reason"] == "missing file"
+    assert summary["cp"] == pytest.approx(0.25)
+    assert summary["rout"] == pytest.approx(0.5)  # b0 1, b2 1, b1 and b3 count 0
+    assert summary["parse_fail"] == pytest.approx(0.5)
+    assert summary["parse_fail_at1"] == pytest.approx(4 / 10)
+    assert summary["invalid"] == pytest.approx(1 / 10)
+    assert summary["time"] == pytest.approx((1 + 2 + 3 + 5) / 4)  # every rollout's time
+    assert summary["drv"] == pytest.approx(0.5)
+    md = (out / "summary.md").read_text()
+    assert "| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) |" in md
+
+    # resumable: a second run scores nothing again and gives the same reports
+    before = (out / "scores.jsonl").read_text()
+    assert main(args + ["--k", "3"]) == 0
+    assert "0 to score" in capsys.readouterr().err
+    assert (out / "scores.jsonl").read_text() == before
+    assert json.loads((out / "summary.json").read_text()) == summary
+
+    # @1 keeps the first rollout only
+    assert main(args + ["--k", "1"]) == 0
+    s1 = json.loads((out / "summary.json").read_text())
+    assert s1["k"] == 1 and s1["n_rollouts"] == 4 and s1["cp"] == 0.0
+
+
+def test_eval_reference(board_set, tmp_path, capsys):
+    root = tmp_path / "set"
+    shutil.copytree(board_set, root)
+    for folder in (root / "d2" / "test").iterdir():
+        write_board(routed(base_board(), [ROUTE_A, ROUTE_B]), folder / "reference.kicad_pcb")
+    out = tmp_path / "ref"
+    assert main(["eval", str(root), "--config", "d2", "--reference", "--out", str(out)]) == 0
+    assert "| Reference |" in capsys.readouterr().out
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["cp"] == 1.0 and summary["k"] == 1 and summary["n_boards"] == 4
+    assert main(["eval", str(root), "--config", "d2", "--reference", "--out", str(out),
+                 "--limit", "2"]) == 0
+    assert json.loads((out / "summary.json").read_text())["n_boards"] == 2
+
+
+def test_eval_user_errors(board_set, runs, tmp_path, capsys):
+    assert main(["eval", str(board_set), "--config", "nope", "--runs", str(runs),
+                 "--out", str(tmp_path / "r")]) == 2
+    assert "no such config/split" in capsys.readouterr().err
+    assert main(["eval", str(board_set), "--config", "d2", "--reference",
+                 "--out", str(tmp_path / "r")]) == 2
+    assert "reference.kicad_pcb" in capsys.readouterr().err
+    assert main(["eval", str(board_set), "--config", "d2", "--out", str(tmp_path / "r")]) == 2
