@@ -14,5 +14,5 @@ fi
 if [ ! -x .venv/bin/python ]; then
     /usr/bin/python3 -m venv --system-site-packages .venv
 fi
-.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test]"
+.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test,route]"
 .venv/bin/python -c "import pcbnew, pcbdata; print('pcbdata', pcbdata.__version__, 'with KiCad', pcbnew.Version())"
