@@ -9,7 +9,6 @@ from dataclasses import dataclass
 from importlib import resources
 
 from pcbdata.errors import UserError
-from pcbdata.generators.d1 import D1Params
 from pcbdata.generators.d2 import D2Params
 
 

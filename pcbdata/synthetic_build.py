@@ -19,7 +19,7 @@ from typing import Callable
 
 from pcbdata import __version__
 from pcbdata.connector import connector_arrays, npz_bytes
-from pcbdata.engine import EnginePool, parse_drc_report
+from pcbdata.engine import EnginePool
 from pcbdata.engine.drc_report import DrcReport
 from pcbdata.errors import UserError, ValidationError
 from pcbdata.fsutil import remove_stale_temps, sha256_bytes, write_atomic, write_dir_atomic

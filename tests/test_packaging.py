@@ -1,6 +1,5 @@
 """The installed package must contain every subpackage and the preset/recipe files."""
 import tomllib
-from pathlib import Path
 
 from tests.conftest import REPO_ROOT
 

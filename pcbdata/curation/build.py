@@ -18,7 +18,6 @@ import csv
 import hashlib
 import io
 import json
-import os
 import shutil
 import sys
 import time

@@ -10,10 +10,26 @@ import shutil
 import tempfile
 
 
-def _pcbnew():
-    import pcbnew  # imported lazily: only engine workers need KiCad
+def pcbnew_module():
+    """KiCad's `pcbnew`, imported lazily: only engine workers import KiCad."""
+    import pcbnew
 
     return pcbnew
+
+
+_pcbnew = pcbnew_module
+
+
+def stage_with_project(board_path: str, project: str, custom_rules: str | None, folder: str,
+                       stem: str = "checked") -> str:
+    """Copies a board next to copies of a project (and custom rules) under one stem in
+    `folder`, so that KiCad loads the board with exactly those rules; returns the board copy."""
+    staged = os.path.join(folder, f"{stem}.kicad_pcb")
+    shutil.copyfile(board_path, staged)
+    shutil.copyfile(project, os.path.join(folder, f"{stem}.kicad_pro"))
+    if custom_rules is not None:
+        shutil.copyfile(custom_rules, os.path.join(folder, f"{stem}.kicad_dru"))
+    return staged
 
 
 def kicad_version() -> str:
@@ -38,7 +54,8 @@ def board_drc_text(board, where: str = "board") -> str:
         report = os.path.join(tmp, "drc.rpt")
         if not pcbnew.WriteDRCReport(board, report, pcbnew.EDA_UNITS_MM, True):
             raise RuntimeError(f"{where}: KiCad DRC did not produce a report")
-        with open(report, encoding="utf-8") as handle:
+        # Legacy boards can hold names that are not UTF-8; the report must still parse.
+        with open(report, encoding="utf-8", errors="replace") as handle:
             return handle.read()
 
 
@@ -62,9 +79,5 @@ def drc(path: str, project: str | None = None, custom_rules: str | None = None) 
     if not os.path.isfile(path):
         raise FileNotFoundError(f"{path}: no such board file")
     with tempfile.TemporaryDirectory(prefix="pcbdata-rules-") as tmp:
-        board = os.path.join(tmp, "checked.kicad_pcb")
-        shutil.copyfile(path, board)
-        shutil.copyfile(project, os.path.join(tmp, "checked.kicad_pro"))
-        if custom_rules is not None:
-            shutil.copyfile(custom_rules, os.path.join(tmp, "checked.kicad_dru"))
+        board = stage_with_project(path, project, custom_rules, tmp)
         return parse_drc_report(drc_text(board)).to_dict()

@@ -7,12 +7,10 @@ computed from these measurements by the pure modules of `pcbdata.evaluator`.
 from __future__ import annotations
 
 import os
-import shutil
 import tempfile
 
 from pcbdata.engine.drc_report import parse_drc_report
 
-PROJECT_SUFFIXES = (".kicad_pro", ".kicad_dru")
 #: Design settings stored in the `.kicad_pcb` itself (its `setup` section): a submission must
 #: not change them (e.g. a larger solder-mask expansion hides solder_mask_bridge errors).
 BOARD_FILE_RULES = ("m_SolderMaskExpansion", "m_SolderMaskMinWidth",
@@ -21,23 +19,16 @@ BOARD_FILE_RULES = ("m_SolderMaskExpansion", "m_SolderMaskMinWidth",
                     "m_TentViasBack")
 
 
-def _pcbnew():
-    import pcbnew  # imported lazily: only engine workers need KiCad
-
-    return pcbnew
+from pcbdata.engine.kicad import board_drc_text, pcbnew_module as _pcbnew, stage_with_project
 
 
 def stage_board(board_path: str, instance_dir: str, tmp: str) -> str:
     """Copies `board_path` into `tmp` next to copies of the instance's `board.kicad_pro` (and
     `board.kicad_dru`), all under one stem, so KiCad loads the board with the instance's rules
     and never with files that came with a submission."""
-    staged = os.path.join(tmp, "scored.kicad_pcb")
-    shutil.copyfile(board_path, staged)
-    for suffix in PROJECT_SUFFIXES:
-        source = os.path.join(instance_dir, "board" + suffix)
-        if os.path.isfile(source):
-            shutil.copyfile(source, os.path.join(tmp, "scored" + suffix))
-    return staged
+    rules = os.path.join(instance_dir, "board.kicad_dru")
+    return stage_with_project(board_path, os.path.join(instance_dir, "board.kicad_pro"),
+                              rules if os.path.isfile(rules) else None, tmp, stem="scored")
 
 
 def _xy(point) -> str:
@@ -162,13 +153,7 @@ def copper_totals(board) -> tuple[float, int]:
 def drc_violations(board) -> list[dict]:
     """KiCad DRC (all severities, all track errors) as a list of
     {type, severity, section, nets} dicts."""
-    pcbnew = _pcbnew()
-    with tempfile.TemporaryDirectory(prefix="pcbdata-score-drc-") as tmp:
-        report = os.path.join(tmp, "drc.rpt")
-        if not pcbnew.WriteDRCReport(board, report, pcbnew.EDA_UNITS_MM, True):
-            raise RuntimeError("KiCad DRC did not produce a report")
-        with open(report, encoding="utf-8") as handle:
-            parsed = parse_drc_report(handle.read())
+    parsed = parse_drc_report(board_drc_text(board))
     return [{"type": v.type, "severity": v.severity, "section": v.section, "nets": v.nets,
              "no_net_item": any(i.net is None or i.net == "<no net>" for i in v.items)}
             for v in parsed.violations]

@@ -17,10 +17,7 @@ _RESOLUTION = re.compile(rb"\(resolution\s+(\w+)\s+(\d+)\)")
 _DSN_UNIT = re.compile(rb"\(unit\s+(\w+)\)")
 
 
-def _pcbnew():
-    import pcbnew  # imported lazily: only engine workers need KiCad
-
-    return pcbnew
+from pcbdata.engine.kicad import pcbnew_module as _pcbnew
 
 
 def fix_ses_resolution(dsn: bytes, ses: bytes) -> bytes:

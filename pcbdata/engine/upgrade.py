@@ -27,10 +27,7 @@ REFERENCE = "reference.kicad_pcb"
 _ACTUAL = re.compile(r"actual ([0-9.]+) mm")
 
 
-def _pcbnew():
-    import pcbnew  # only engine workers import KiCad
-
-    return pcbnew
+from pcbdata.engine.kicad import board_drc_text, pcbnew_module as _pcbnew
 
 
 def _sha(path: str) -> str:
@@ -62,13 +59,7 @@ def _load(path: str, seed: int):
 
 def _drc(board_path: str, seed: int) -> str:
     """DRC report text of a board with the project next to it (all track errors)."""
-    pcbnew = _pcbnew()
-    board = _load(board_path, seed)
-    report = os.path.join(os.path.dirname(board_path), "drc.rpt")
-    if not pcbnew.WriteDRCReport(board, report, pcbnew.EDA_UNITS_MM, True):
-        raise RuntimeError("KiCad DRC did not produce a report")
-    with open(report, encoding="utf-8", errors="replace") as handle:
-        return handle.read()
+    return board_drc_text(_load(board_path, seed), board_path)
 
 
 def _stage(folder: str, board_bytes: bytes, project_text: str) -> str:

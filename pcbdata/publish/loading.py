@@ -95,7 +95,7 @@ def load(config: str, split: str = "test", root=None, **kwargs):
         kwargs["cache_dir"] = str(_cache_dir(root, every, recorded))
     try:
         return datasets.load_dataset(str(root), config, split=split, **kwargs)
-    except Exception as exc:  # noqa: BLE001
+    except Exception:  # noqa: BLE001
         problem = _bad_shard(root, shards)
         if problem:
             raise UserError(problem) from None

@@ -5,7 +5,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pcbdata.board import Track, Via, mm_to_nm
+from pcbdata.board import Via, mm_to_nm
 from pcbdata.connector import connector_arrays, npz_bytes
 from pcbdata.engine import DrcReport
 from pcbdata.errors import UserError
@@ -66,7 +66,7 @@ def test_seed_streams_are_disjoint_per_grid_split_and_index():
 
 
 def test_generated_boards_pass_drc_with_only_their_unconnected_items(engine_pool, tmp_path):
-    paths, expected = [], []
+    paths = []
     for grid in GRIDS:
         for placement in ("uniform", "random-walk"):
             for index in range(4):
