@@ -66,7 +66,7 @@ def main() -> int:
     parser.add_argument("--split", default="test")
     parser.add_argument("--runs", required=True, help="RUNS/<board_id>/<rollout>.kicad_pcb")
     parser.add_argument("--k", type=int, default=5)
-    parser.add_argument("--workers", type=int, default=min(16, 4 * (os.cpu_count() or 1)),
+    parser.add_argument("--workers", type=int, default=min(32, 8 * (os.cpu_count() or 1)),
                         help="evaluator KiCad workers (default: as `pcbdata eval`)")
     parser.add_argument("--cli-workers", type=int, default=os.cpu_count() or 1,
                         help="parallel kicad-cli processes (default: one per core)")
@@ -100,7 +100,8 @@ def main() -> int:
                 "drv_by_type": mine["drv_by_type"]}, "kicad_cli": counts})
     figures = {
         "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "machine": f"{os.cpu_count()} cores, {platform.machine()}, shared with other jobs",
+        "machine": f"{os.cpu_count()} cores, {platform.machine()}, load average at start "
+                   f"{os.getloadavg()[0]:.1f}",
         "config": args.config, "split": args.split, "k": args.k, "workers": args.workers,
         "cli_workers": args.cli_workers,
         "rollouts": len(pairs), "scored_rollouts": len(scored),
