@@ -100,7 +100,7 @@ def main() -> int:
                 "drv_by_type": mine["drv_by_type"]}, "kicad_cli": counts})
     figures = {
         "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-        "machine": f"{os.cpu_count()} cores, {platform.machine()}, load average at start "
+        "machine": f"{os.cpu_count()} cores, {platform.machine()}, 1-min load average at the end "
                    f"{os.getloadavg()[0]:.1f}",
         "config": args.config, "split": args.split, "k": args.k, "workers": args.workers,
         "cli_workers": args.cli_workers,
