@@ -10,6 +10,7 @@ import os
 import tempfile
 
 from pcbdata.engine.drc_report import parse_drc_report
+from pcbdata.engine.kicad import board_drc_text, pcbnew_module as _pcbnew, stage_with_project
 
 #: Design settings stored in the `.kicad_pcb` itself (its `setup` section): a submission must
 #: not change them (e.g. a larger solder-mask expansion hides solder_mask_bridge errors).
@@ -17,9 +18,6 @@ BOARD_FILE_RULES = ("m_SolderMaskExpansion", "m_SolderMaskMinWidth",
                     "m_SolderMaskToCopperClearance", "m_AllowSoldermaskBridgesInFPs",
                     "m_SolderPasteMargin", "m_SolderPasteMarginRatio", "m_TentViasFront",
                     "m_TentViasBack")
-
-
-from pcbdata.engine.kicad import board_drc_text, pcbnew_module as _pcbnew, stage_with_project
 
 
 def stage_board(board_path: str, instance_dir: str, tmp: str) -> str:

@@ -11,13 +11,12 @@ import subprocess
 import tempfile
 import time
 
+from pcbdata.engine.kicad import pcbnew_module as _pcbnew
 from pcbdata.engine.scoring import stage_board
+from pcbdata.sexpr_text import block_end
 
 _RESOLUTION = re.compile(rb"\(resolution\s+(\w+)\s+(\d+)\)")
 _DSN_UNIT = re.compile(rb"\(unit\s+(\w+)\)")
-
-
-from pcbdata.engine.kicad import pcbnew_module as _pcbnew
 
 
 def fix_ses_resolution(dsn: bytes, ses: bytes) -> bytes:
@@ -49,18 +48,10 @@ def strip_ses_placement(ses: str) -> str:
     match = re.search(r"\(placement\s", ses)
     if match is None:
         return ses
-    depth, quoted = 0, False
-    for i in range(match.start(), len(ses)):
-        c = ses[i]
-        if c == '"':
-            quoted = not quoted
-        elif not quoted and c == "(":
-            depth += 1
-        elif not quoted and c == ")":
-            depth -= 1
-            if depth == 0:
-                return ses[:match.start()] + ses[i + 1:]
-    return ses
+    try:
+        return ses[:match.start()] + ses[block_end(ses, match.start()):]
+    except ValueError:  # a truncated session: KiCad's import will report it
+        return ses
 
 
 def route_board(board_path: str, instance_dir: str, out_path: str, command: list[str],

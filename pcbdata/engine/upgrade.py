@@ -19,15 +19,13 @@ import re
 import shutil
 import tempfile
 import time
+from pcbdata.engine.kicad import board_drc_text, pcbnew_module as _pcbnew
 
 BOARD = "board.kicad_pcb"
 PROJECT = "board.kicad_pro"
 REFERENCE = "reference.kicad_pcb"
 
 _ACTUAL = re.compile(r"actual ([0-9.]+) mm")
-
-
-from pcbdata.engine.kicad import board_drc_text, pcbnew_module as _pcbnew
 
 
 def _sha(path: str) -> str:

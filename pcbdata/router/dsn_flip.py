@@ -11,6 +11,7 @@ footprints the mirrored geometry follows the usual mirror-about-Y convention.
 from __future__ import annotations
 
 import re
+from pcbdata.sexpr_text import block_end
 
 _PLACE = re.compile(r"^(\s*\(place\s+(\S+)\s+\S+\s+\S+\s+)back(\s)", re.M)
 _COMPONENT = re.compile(r"^(\s*)\(component\s+(\S+)\s*$", re.M)
@@ -19,19 +20,10 @@ _SUFFIX = "__back"
 
 def _block(text: str, start: int) -> int:
     """Index just past the s-expression that opens at `text[start] == '('`."""
-    depth, i, quoted = 0, start, False
-    while i < len(text):
-        c = text[i]
-        if c == '"':
-            quoted = not quoted
-        elif not quoted and c == "(":
-            depth += 1
-        elif not quoted and c == ")":
-            depth -= 1
-            if depth == 0:
-                return i + 1
-        i += 1
-    raise ValueError("unbalanced DSN")
+    try:
+        return block_end(text, start)
+    except ValueError:
+        raise ValueError("unbalanced DSN") from None
 
 
 def _find_named(text: str, kind: str, name: str) -> tuple[int, int] | None:
