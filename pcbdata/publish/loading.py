@@ -90,6 +90,12 @@ def load(config: str, split: str = "test", root=None, **kwargs):
         if rel in recorded and sha256_file(root / rel) != recorded[rel]:
             raise UserError(f"{root / rel}: corrupt parquet shard (its sha256 differs from "
                             f"{STATE_NAME}); run `pcbdata verify {root}`")
+    if _empty_split(root, shards):
+        # `datasets` cannot read a split with no rows ("corresponds to no data"), e.g. a D3 tier
+        # that a small corpus leaves empty; the columns still come from the shard's schema.
+        import pyarrow.parquet as pq
+
+        return datasets.Dataset(pq.read_table(root / shards[0]))
     if "cache_dir" not in kwargs:
         every = [rel for paths in card[config].values() for rel in paths]  # datasets prepares all splits
         kwargs["cache_dir"] = str(_cache_dir(root, every, recorded))
@@ -100,6 +106,12 @@ def load(config: str, split: str = "test", root=None, **kwargs):
         if problem:
             raise UserError(problem) from None
         raise
+
+
+def _empty_split(root: Path, shards: list[str]) -> bool:
+    import pyarrow.parquet as pq
+
+    return bool(shards) and all(pq.ParquetFile(root / rel).metadata.num_rows == 0 for rel in shards)
 
 
 # ---- boards as files ---------------------------------------------------------------------

@@ -144,3 +144,23 @@ def test_recipe_rows_have_hashes_and_no_text(published):
     assert row["licence"] == "unknown" and row["author"] == "Author 2" and row["row"] == 3
     routed = [row for row in ds if row["redistributable"]]
     assert all(r["reference"] for r in routed)
+
+
+def test_an_empty_split_verifies_and_loads_as_an_empty_dataset(tmp_path):
+    """A small corpus can leave a D3 tier empty: no folders on disk, zero-row shards. `datasets`
+    cannot read a split with no rows, so `pcbdata.load` returns an empty Dataset with the columns."""
+    from pcbdata.manifest import write_manifest
+    from pcbdata.publish import publish_set
+    from pcbdata.verify import verify_set
+    from tests.publish.setbuilder import _d3_config, make_set
+
+    manifest = make_set(tmp_path, d2={"test": 2}, d1={"test": 2}, d3=True)
+    manifest["configs"]["d3-c"] = _d3_config(tmp_path, "d3-c", count=0)
+    write_manifest(tmp_path, manifest)
+    publish_set(tmp_path, previews=0)
+    assert verify_set(tmp_path) == []
+    empty = pcbdata.load("d3-c", split="full", root=tmp_path)
+    full = pcbdata.load("d3-b", split="full", root=tmp_path)
+    assert empty.num_rows == 0 and full.num_rows == 4
+    assert {"config", "split", "board_id", "board", "project", "n_pads"} <= set(empty.column_names)
+    assert set(empty.column_names) <= set(full.column_names)
