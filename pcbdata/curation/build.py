@@ -53,6 +53,26 @@ def state_key(board: corpus.SourceBoard, recipe: Recipe, kicad_version: str) -> 
     return hashlib.sha256(text.encode("utf-8")).hexdigest()[:32]
 
 
+def drc_counts(report: DrcReport) -> tuple[dict[str, int], int]:
+    """Error-severity violations per type and unconnected items (excluded markers left out)."""
+    types: dict[str, int] = {}
+    unconnected = 0
+    for v in report.violations:
+        if v.severity == "excluded":
+            continue
+        if v.section == "unconnected":
+            unconnected += 1
+        elif v.severity == "error":
+            types[v.type] = types.get(v.type, 0) + 1
+    return types, unconnected
+
+
+def is_kept(report: DrcReport, keep: dict) -> bool:
+    """The revalidation rule of the recipe's `[keep]` table."""
+    types, unconnected = drc_counts(report)
+    return sum(types.values()) <= int(keep["max_errors"]) and unconnected <= int(keep["max_unconnected"])
+
+
 def judge(result: dict, keep: dict) -> dict:
     """The fate of one engine result: plain data for the report and the state."""
     stage = result.get("stage")
@@ -66,16 +86,7 @@ def judge(result: dict, keep: dict) -> dict:
         out["fate"] = corpus.DRC_FAILURE
     if out["fate"]:
         return out
-    report = DrcReport.from_dict(result["drc"])
-    types: dict[str, int] = {}
-    unconnected = 0
-    for v in report.violations:
-        if v.severity == "excluded":
-            continue
-        if v.section == "unconnected":
-            unconnected += 1
-        elif v.severity == "error":
-            types[v.type] = types.get(v.type, 0) + 1
+    types, unconnected = drc_counts(DrcReport.from_dict(result["drc"]))
     out["errors"] = sum(types.values())
     out["error_types"] = dict(sorted(types.items()))
     out["unconnected"] = unconnected
@@ -208,9 +219,8 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
                 todo.append((b, key))
         log(f"d3: {len(boards) - len(todo)} boards known (resumed or decided without KiCad), "
             f"{len(todo)} to process with {pool.workers} workers")
-        skip = list(recipe["keep"].get("skip_warning_checks", []))
         args = [(str(b.board_path), board_seed(engine["uuid_seed"], b.name), recipe["compat"],
-                 skip) for b, _ in todo]
+                 recipe["keep"]) for b, _ in todo]
         done = 0
         for outcome in pool.map(TASK, args):
             b, key = todo[outcome.index]

@@ -206,17 +206,24 @@ def check_project(project: dict, skip_checks) -> dict:
     return out
 
 
-def process_board(source_path: str, seed: int, compat: dict, skip_checks=()) -> dict:
+def process_board(source_path: str, seed: int, compat: dict, keep: dict | None = None) -> dict:
     """Upgrades, patches, revalidates and strips one source board.
+
+    `keep` is the recipe's `[keep]` table: its skip list shapes the revalidation DRC, and a
+    board its thresholds reject stops after the DRC (stage `drc`, no bare board: it is never
+    written). Without it (the warm-up) every step runs.
 
     Returns plain data: `stage` (the step reached or failed at: load, upgrade, compat, drc,
     bare, done), `error`, the produced files as bytes (`files`: board, project, reference),
     the DRC report (`drc`, `DrcReport.to_dict()`), hashes around the compatibility pass and
     board facts. Raises nothing for a bad board: the failure is in the result.
     """
+    from pcbdata.curation.build import is_kept
     from pcbdata.curation.projectfile import (default_clearance, dumps_project,
                                               patch_project)
     from pcbdata.engine.drc_report import parse_drc_report
+
+    skip_checks = (keep or {}).get("skip_warning_checks", ())
 
     pcbnew = _pcbnew()
     warm_up(compat)
@@ -287,15 +294,17 @@ def process_board(source_path: str, seed: int, compat: dict, skip_checks=()) -> 
 
         result["stage"] = "drc"
         try:
-            report = parse_drc_report(_drc(check_path, seed))
+            bare = _load(check_path, seed)  # checked, then stripped into the bare board
+            report = parse_drc_report(board_drc_text(bare, check_path))
         except Exception as exc:  # noqa: BLE001
             result["error"] = f"drc: {exc}"
             return result
         result["drc"] = report.to_dict()
         lap("drc")
+        if keep is not None and not is_kept(report, keep):
+            return result
 
         result["stage"] = "bare"
-        bare = _load(check_path, seed)
         for item in list(bare.GetTracks()):
             bare.Delete(item)
         bare_dir = os.path.join(work, "bare")
