@@ -164,7 +164,7 @@ class _CheckLog:
 
 def check_problem(report: DrcReport, expected_unconnected: int) -> str | None:
     """Why a generated board fails its check, or None: only the expected unconnected items."""
-    other = {k: v for k, v in report.counts_by_type(include_unconnected=False).items()}
+    other = report.counts_by_type(include_unconnected=False)
     unconnected = len([v for v in report.unconnected if v.severity != "excluded"])
     if other or unconnected != expected_unconnected:
         first = next((v for v in report.violations if v.section != "unconnected"), None)
@@ -272,13 +272,12 @@ def _check_in_kicad(root: Path, jobs: list[SplitJob], entries, workers: int,
             for outcome in pool.map("pcbdata.engine.kicad:drc", args):
                 rel, sha, expected, job = todo[outcome.index]
                 progress.advance()
-                params = json.dumps(job.generator.params.as_dict(), sort_keys=True)
-                if not outcome.ok:
-                    summary.failures.append(f"{rel}: KiCad could not check it: {outcome.error} "
-                                            f"(parameters {params})")
-                    continue
-                problem = check_problem(DrcReport.from_dict(outcome.value), expected)
+                if outcome.ok:
+                    problem = check_problem(DrcReport.from_dict(outcome.value), expected)
+                else:
+                    problem = f"KiCad could not check it: {outcome.error}"
                 if problem:
+                    params = json.dumps(job.generator.params.as_dict(), sort_keys=True)
                     summary.failures.append(f"{rel}: {problem} (parameters {params})")
                 else:
                     checks.add(rel, sha)
