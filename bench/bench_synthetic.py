@@ -29,7 +29,7 @@ def kicad_cli_counts(report_path: Path) -> tuple[int, int]:
 
 
 def main() -> None:
-    from pcbdata.engine import DrcReport, EnginePool, kicad_cli_drc
+    from pcbdata.kicad import DrcReport, KicadPool, kicad_cli_drc
 
     results = {"machine": machine()}
     with tempfile.TemporaryDirectory(prefix="pcbdata-bench-") as tmp:
@@ -43,9 +43,9 @@ def main() -> None:
         boards = sorted((tmp / "d2" / "d2" / "test").glob("board_*/board.kicad_pcb"))
         assert len(boards) == 128
         start = time.perf_counter()
-        with EnginePool(workers=2) as pool:
+        with KicadPool(workers=2) as pool:
             ours = {o.index: DrcReport.from_dict(o.value)
-                    for o in pool.map("pcbdata.engine.kicad:drc", [(str(b),) for b in boards])}
+                    for o in pool.map("pcbdata.kicad.basics:drc", [(str(b),) for b in boards])}
         results["check_128_pcbdata_s"] = time.perf_counter() - start
 
         start = time.perf_counter()

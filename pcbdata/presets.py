@@ -1,4 +1,4 @@
-"""Loads the versioned generator presets of `generators/` (installed as `pcbdata._preset_files`)."""
+"""Loads the versioned generator presets (`pcbdata/resources/presets/*.toml`)."""
 from __future__ import annotations
 
 import difflib
@@ -6,14 +6,14 @@ import hashlib
 import json
 import tomllib
 from dataclasses import dataclass
-from importlib import resources
+from pcbdata.resources import resource_path
 
 from pcbdata.errors import UserError
 from pcbdata.generators.d2 import D2Params
 
 
 def _load(name: str) -> dict:
-    with resources.files("pcbdata._preset_files").joinpath(name).open("rb") as handle:
+    with resource_path("presets", name).open("rb") as handle:
         return tomllib.load(handle)
 
 
@@ -68,7 +68,7 @@ def d2_level(name: str, overrides: dict | None = None) -> D2Level:
         hint = f"; did you mean {close[0]!r}?" if close else ""
         raise UserError(f"unknown D2 level {name!r}{hint} (levels: {', '.join(sorted(levels, key=lambda n: levels[n]['rank']))})")
     spec = {k: v for k, v in levels[name].items() if k not in ("rank", "description")}
-    where = f"generators/d2_levels.toml level {name!r}"
+    where = f"pcbdata/resources/presets/d2_levels.toml level {name!r}"
     D2Params.from_dict(spec, where)  # the preset alone must be valid
     merged = {**spec, **(overrides or {})}
     params = D2Params.from_dict(merged, "--set" if overrides else where)

@@ -19,8 +19,8 @@ from typing import Callable
 
 from pcbdata import __version__
 from pcbdata.connector import connector_arrays, npz_bytes
-from pcbdata.engine import EnginePool
-from pcbdata.engine.drc_report import DrcReport
+from pcbdata.kicad import KicadPool
+from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.errors import UserError, ValidationError
 from pcbdata.fsutil import remove_stale_temps, sha256_bytes, write_atomic, write_dir_atomic
 from pcbdata.kicad_writer import BOARD_FILE, PROJECT_FILE, RULES_FILE, board_files
@@ -267,9 +267,9 @@ def _check_in_kicad(root: Path, jobs: list[SplitJob], entries, workers: int,
         return
     progress = _Progress("KiCad check", len(todo))
     try:
-        with EnginePool(workers=workers, task_timeout=task_timeout) as pool:
+        with KicadPool(workers=workers, task_timeout=task_timeout) as pool:
             args = [_drc_args(root, rel) for rel, *_ in todo]
-            for outcome in pool.map("pcbdata.engine.kicad:drc", args):
+            for outcome in pool.map("pcbdata.kicad.basics:drc", args):
                 rel, sha, expected, job = todo[outcome.index]
                 progress.advance()
                 if outcome.ok:
@@ -295,7 +295,7 @@ def _drc_args(root: Path, rel: str) -> tuple:
 
 
 def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo], entries) -> None:
-    from pcbdata.engine import kicad_version
+    from pcbdata.kicad import kicad_version
 
     built: dict[str, dict] = {}
     for job in jobs:

@@ -22,9 +22,9 @@ SHARED_PCBENCH = REPO_ROOT.parent / "shared" / "pcbench" / "pcbench.tar.xz"
 
 
 @pytest.fixture(scope="session")
-def engine_pool():
+def kicad_pool():
     """One pool of KiCad worker processes shared by the whole test session."""
-    from pcbdata.engine import EnginePool
+    from pcbdata.kicad import KicadPool
 
-    with EnginePool(workers=2, task_timeout=300) as pool:
+    with KicadPool(workers=2, task_timeout=300) as pool:
         yield pool

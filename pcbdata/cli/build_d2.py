@@ -9,7 +9,7 @@ HELP = "D2 gridless two-layer boards with multi-pin nets, at the benchmark's or 
 
 def register(parser) -> None:
     parser.add_argument("--level", default="default", metavar="NAME",
-                        help="difficulty level from generators/d2_levels.toml (default: the "
+                        help="difficulty level from pcbdata/resources/presets/d2_levels.toml (default: the "
                              "benchmark's); `pcbdata levels` lists them")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         dest="overrides",

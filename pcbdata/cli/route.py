@@ -28,7 +28,7 @@ def register(parser) -> None:
 
 
 def run(args) -> int:
-    from pcbdata.router import route_set
+    from pcbdata.baselines.specctra import route_set
 
     counts = route_set(args.dir, args.config, args.split, args.out, router=args.router,
                        router_cmd=args.router_cmd, rollouts=args.rollouts, workers=args.workers,

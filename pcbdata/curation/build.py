@@ -1,7 +1,7 @@
 """`pcbdata build d3`: orchestration of the D3 curation with resume.
 
 Flow: scan the checkout (no KiCad) -> one engine task per board that still needs one
-(`pcbdata.engine.upgrade:process_board`, isolated worker, time limit) -> per-board state
+(`pcbdata.kicad.upgrade:process_board`, isolated worker, time limit) -> per-board state
 saved under `DIR/.d3-state/` -> table, tiers, picks -> the board trees, tables and attribution
 -> `manifest.json` last.
 
@@ -30,7 +30,7 @@ from pcbdata.curation import corpus
 from pcbdata.curation.picks import COLUMNS, CONFIGS, Row, assign_tiers, evaluation_subsets, \
     number_rows
 from pcbdata.curation.recipe import Recipe
-from pcbdata.engine.drc_report import DrcReport
+from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.fsutil import remove_stale_temps, sha256_bytes, write_atomic, write_dir_atomic
 from pcbdata.manifest import FORMAT, manifest_path, merge_configs, read_manifest, \
     write_manifest
@@ -40,7 +40,7 @@ BOARD_FILES = ("board.kicad_pcb", "board.kicad_pro", "reference.kicad_pcb")
 SPLITS = ("test", "full")
 REPORT_COLUMNS = ["name", "fate", "reason", "errors", "error_types", "unconnected",
                   "board_identical", "board_id", "source_board_sha256", "seconds"]
-TASK = "pcbdata.engine.upgrade:process_board"
+TASK = "pcbdata.kicad.upgrade:process_board"
 
 
 def board_seed(base: int, name: str) -> int:
@@ -155,14 +155,14 @@ def _write_if_changed(path: Path, data: bytes | str) -> None:
 def _engine_kicad_version(pool) -> str:
     """KiCad's version from a worker (it starts one), under a limit of at least 2 minutes
     whatever the per-board limit."""
-    from pcbdata.engine.pool import EngineError
+    from pcbdata.kicad.pool import KicadError
     from pcbdata.errors import UserError
 
     saved = pool.task_timeout
     pool.task_timeout = max(float(saved), 120.0)
     try:
-        return str(pool.call("pcbdata.engine.upgrade:kicad_version"))
-    except EngineError as exc:
+        return str(pool.call("pcbdata.kicad.upgrade:kicad_version"))
+    except KicadError as exc:
         raise UserError(f"cannot start KiCad (pcbnew) in a worker: {exc}") from None
     finally:
         pool.task_timeout = saved
@@ -176,7 +176,7 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
     `tasks_per_worker`: KiCad keeps memory between boards (tens of MB each), so workers are
     recycled after this many boards; it does not change the output.
     """
-    from pcbdata.engine.pool import EnginePool
+    from pcbdata.kicad.pool import KicadPool
 
     log = log or (lambda line: print(line, file=sys.stderr, flush=True))
     source, out = Path(source), Path(out)
@@ -195,7 +195,7 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
     engine = recipe["engine"]
     own_pool = pool is None
     if own_pool:
-        pool = EnginePool(workers=workers, task_timeout=float(engine["task_timeout_s"]),
+        pool = KicadPool(workers=workers, task_timeout=float(engine["task_timeout_s"]),
                           tasks_per_worker=tasks_per_worker)
     try:
         kicad_version = _engine_kicad_version(pool)

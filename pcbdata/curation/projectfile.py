@@ -1,7 +1,7 @@
 """The D3 project-file compatibility pass (SPEC section 3, step 2): pure data, no KiCad.
 
 It edits the `.kicad_pro` JSON only; the board file is never touched (the engine side checks
-that its bytes are identical before and after, see `pcbdata.engine.upgrade`).
+that its bytes are identical before and after, see `pcbdata.kicad.upgrade`).
 """
 from __future__ import annotations
 

@@ -1,10 +1,10 @@
-"""Loading the versioned D3 recipe (`curation/d3.toml`, installed as `pcbdata._recipe_files`)."""
+"""Loading the versioned D3 recipe (`pcbdata/resources/recipes/d3.toml`, packaged in `pcbdata.resources`)."""
 from __future__ import annotations
 
 import hashlib
 import tomllib
 from dataclasses import dataclass
-from importlib import resources
+from pcbdata.resources import resource_path
 from pathlib import Path
 
 from pcbdata.errors import UserError
@@ -67,7 +67,7 @@ def parse_recipe(raw: bytes, source: str) -> Recipe:
 def load_recipe(path: str | Path | None = None) -> Recipe:
     """The recipe at `path`, or the packaged default recipe."""
     if path is None:
-        raw = resources.files("pcbdata._recipe_files").joinpath(DEFAULT_RECIPE).read_bytes()
+        raw = resource_path("recipes", DEFAULT_RECIPE).read_bytes()
         return parse_recipe(raw, DEFAULT_RECIPE)
     path = Path(path)
     if not path.is_file():

@@ -1,6 +1,6 @@
 """Scoring of routed boards against instances: one board (`score`) or many (`Evaluator`).
 
-KiCad runs in engine worker processes (`pcbdata.engine.pool.EnginePool`); this module only
+KiCad runs in engine worker processes (`pcbdata.kicad.pool.KicadPool`); this module only
 moves files and plain data, and computes the metrics with `pcbdata.evaluator.metrics`.
 """
 from __future__ import annotations
@@ -9,14 +9,14 @@ import hashlib
 from pathlib import Path
 from typing import Iterable, Iterator
 
-from pcbdata.engine.pool import EnginePool
+from pcbdata.kicad.pool import KicadPool
 from pcbdata.errors import UserError
 from pcbdata.evaluator.integrity import integrity_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
 EVALUATOR_VERSION = "1.0.0"
-MEASURE = "pcbdata.engine.scoring:measure"
+MEASURE = "pcbdata.kicad.scoring:measure"
 INSTANCE_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
 
 
@@ -94,10 +94,10 @@ class Evaluator:
     """
 
     def __init__(self, workers: int = 1, weights: Weights = DEFAULT_WEIGHTS,
-                 pool: EnginePool | None = None, task_timeout: float = 300.0):
+                 pool: KicadPool | None = None, task_timeout: float = 300.0):
         self.weights = weights
         self._own_pool = pool is None
-        self.pool = pool or EnginePool(workers=workers, task_timeout=task_timeout)
+        self.pool = pool or KicadPool(workers=workers, task_timeout=task_timeout)
         self._bare: dict[str, dict] = {}
 
     def __enter__(self) -> "Evaluator":
@@ -154,7 +154,7 @@ class Evaluator:
 
 
 def score(instance: str | Path, routed: str | Path, weights: Weights = DEFAULT_WEIGHTS,
-          pool: EnginePool | None = None) -> dict:
+          pool: KicadPool | None = None) -> dict:
     """Scores one routed `.kicad_pcb` against an instance directory (see `Evaluator.score`).
 
     Starts a KiCad worker for the call unless `pool` is given; for many calls keep an

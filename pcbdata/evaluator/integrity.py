@@ -1,7 +1,7 @@
 """Integrity check: a submission may only add or change tracks, arcs and vias.
 
 Compares the fingerprint of the routed board with the instance's (see
-`pcbdata.engine.scoring.fingerprint`): nets, footprints, pads (position, shape, size, drill,
+`pcbdata.kicad.scoring.fingerprint`): nets, footprints, pads (position, shape, size, drill,
 layers, net), zones (outline, layers, net, priority), board outline (Edge.Cuts), drawings on
 copper layers, the layer set and the design settings the board file carries (solder mask,
 paste, via tenting, thickness); the design rules themselves come from the instance's project. Any difference makes the rollout invalid, with the reason.

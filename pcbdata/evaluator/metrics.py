@@ -1,6 +1,6 @@
 """The benchmark's metrics (SPEC section 4) as pure functions of the engine's measurements.
 
-A measurement (see `pcbdata.engine.scoring.measure`) is plain data: DRC violations as
+A measurement (see `pcbdata.kicad.scoring.measure`) is plain data: DRC violations as
 `{type, severity, section, nets, no_net_item}`, pad-holding copper clusters per net, WL, vias,
 KiCad's net count and an integrity fingerprint. Nothing here imports KiCad.
 """

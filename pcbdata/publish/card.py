@@ -253,7 +253,7 @@ def card_text(manifest: dict, state: dict) -> str:
                         f"`{json.dumps(recipe, sort_keys=True, ensure_ascii=False)}`, source "
                         f"`{json.dumps(cfg.get('source'), sort_keys=True, ensure_ascii=False)}`. "
                         "The whole recipe (every parameter and override) is in the `parameters` "
-                        "column and in `curation/d3.toml` of the pcbdata repository.", ""]
+                        "column and in `pcbdata/resources/recipes/d3.toml` of the pcbdata package.", ""]
                 continue
             params = cfg.get("parameters")
             out += [f"`{config}`: seed {cfg.get('seed', '-')}, parameters "

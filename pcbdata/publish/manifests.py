@@ -1,6 +1,6 @@
-"""The manifests of released sets, kept in the repository under `manifests/`.
+"""The manifests of released sets, shipped in the package under `pcbdata/resources/releases/`.
 
-One file per config, `manifests/<config>.json.gz` (gzip without timestamp, so the bytes depend
+One file per config, `pcbdata/resources/releases/<config>.json.gz` (gzip without timestamp, so the bytes depend
 only on the content): the manifest of the released build restricted to that config, with every
 board's sha256. A test rebuilds the small splits (validation, test) and compares them with these
 files, so a change that alters boards cannot land unnoticed.
@@ -88,13 +88,13 @@ def compare(release: dict, rebuilt: dict, config: str, splits: list[str] | None 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m pcbdata.publish.manifests")
     verbs = parser.add_subparsers(dest="verb", required=True)
-    ex = verbs.add_parser("export", help="write manifests/<config>.json.gz from a released build")
+    ex = verbs.add_parser("export", help="write pcbdata/resources/releases/<config>.json.gz from a released build")
     ex.add_argument("root")
     ex.add_argument("--configs", default=None)
-    ex.add_argument("--out", default="manifests")
+    ex.add_argument("--out", default="pcbdata/resources/releases")
     ch = verbs.add_parser("check", help="compare a rebuild with the committed manifests")
     ch.add_argument("root")
-    ch.add_argument("--dir", default="manifests")
+    ch.add_argument("--dir", default="pcbdata/resources/releases")
     args = parser.parse_args(argv)
     try:
         if args.verb == "export":

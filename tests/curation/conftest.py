@@ -15,7 +15,7 @@ def fixture_corpus(tmp_path_factory):
 
 
 @pytest.fixture(scope="session")
-def fixture_build(fixture_corpus, engine_pool):
+def fixture_build(fixture_corpus, kicad_pool):
     """The fixture corpus built once (library call, shared engine pool)."""
     from pcbdata.curation.build import build
     from pcbdata.curation.recipe import load_recipe
@@ -23,7 +23,7 @@ def fixture_build(fixture_corpus, engine_pool):
     out = fixture_corpus["root"] / "out"
     lines: list[str] = []
     summary = build(fixture_corpus["source"], out, load_recipe(fixture_corpus["recipe_path"]),
-                    pool=engine_pool, log=lines.append)
+                    pool=kicad_pool, log=lines.append)
     from pcbdata.publish import publish_set
 
     publish_set(out, sorted(summary["tiers"]))  # as `pcbdata build d3` does

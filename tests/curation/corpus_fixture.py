@@ -188,9 +188,9 @@ def make_corpus(root: Path) -> Path:
 def fixture_recipe(path: Path) -> Path:
     """The packaged recipe scaled down to the fixture: A = 3 boards, B = pads <= 12,
     2 bins, plus an exclusion override."""
-    from importlib import resources
+    from pcbdata.resources import resource_path
 
-    text = resources.files("pcbdata._recipe_files").joinpath("d3.toml").read_text()
+    text = resource_path("recipes", "d3.toml").read_text()
     text = text.replace("a_size = 100", "a_size = 3").replace("b_max_pads = 100",
                                                               "b_max_pads = 12")
     text = text.replace("bins = 10", "bins = 2").replace('version = "1.0.0"',

@@ -154,14 +154,14 @@ def test_attribution(fixture_build):
     assert india["pcbench_licence"] == "MIT"
 
 
-def test_rebuild_in_place_reuses_state_and_changes_nothing(fixture_build, engine_pool):
+def test_rebuild_in_place_reuses_state_and_changes_nothing(fixture_build, kicad_pool):
     from pcbdata.curation.build import build
     from pcbdata.curation.recipe import load_recipe
 
     before = {p: (fixture_build["out"] / p).read_bytes() for p in tree(fixture_build["out"])}
     lines: list[str] = []
     build(fixture_build["source"], fixture_build["out"],
-          load_recipe(fixture_build["recipe_path"]), pool=engine_pool, log=lines.append)
+          load_recipe(fixture_build["recipe_path"]), pool=kicad_pool, log=lines.append)
     assert any("0 to process" in line for line in lines)
     after = {p: (fixture_build["out"] / p).read_bytes() for p in tree(fixture_build["out"])}
     assert after == before
@@ -237,7 +237,7 @@ def test_time_limit_is_an_engine_failure_and_is_retried_next_run(fixture_corpus,
     assert not list((tmp_path / "out" / ".d3-state").glob("*.json"))
 
 
-def test_other_sets_in_the_folder_keep_their_manifest_entries(fixture_build, engine_pool,
+def test_other_sets_in_the_folder_keep_their_manifest_entries(fixture_build, kicad_pool,
                                                              tmp_path):
     import shutil
 
@@ -250,7 +250,7 @@ def test_other_sets_in_the_folder_keep_their_manifest_entries(fixture_build, eng
     manifest["configs"]["d2"] = {"family": "d2", "splits": {}}
     (out / "manifest.json").write_text(json.dumps(manifest))
     build(fixture_build["source"], out, load_recipe(fixture_build["recipe_path"]),
-          pool=engine_pool, log=lambda line: None)
+          pool=kicad_pool, log=lambda line: None)
     after = json.loads((out / "manifest.json").read_text())
     assert set(after["configs"]) == {"d2", "d3-a", "d3-b", "d3-c"}
     assert after["configs"]["d3-a"] == manifest["configs"]["d3-a"]

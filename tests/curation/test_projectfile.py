@@ -82,7 +82,7 @@ def test_stored_clearance_wins_over_observed_spacing():
 
 
 def test_revalidation_skips_only_warning_checks():
-    from pcbdata.engine.upgrade import check_project
+    from pcbdata.kicad.upgrade import check_project
 
     p = project(0.2, severities={"silk_overlap": "warning", "starved_thermal": "error",
                                  "clearance": "error"})

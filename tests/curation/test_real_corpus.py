@@ -41,7 +41,7 @@ def _subset(checkout: Path) -> list[str]:
 
 
 @pytest.fixture(scope="session")
-def real_subset(tmp_path_factory, engine_pool):
+def real_subset(tmp_path_factory, kicad_pool):
     if not SHARED_PCBENCH.is_file():
         pytest.skip(f"real-corpus tests need the PCBench snapshot at {SHARED_PCBENCH} "
                     f"(absent on this machine)")
@@ -60,7 +60,7 @@ def real_subset(tmp_path_factory, engine_pool):
     (sub / "github_meta").symlink_to(full / "github_meta", target_is_directory=True)
     (sub / "LICENSE").symlink_to(full / "LICENSE")
     out = root / "out"
-    summary = build(sub, out, load_recipe(), pool=engine_pool, log=lambda line: None)
+    summary = build(sub, out, load_recipe(), pool=kicad_pool, log=lambda line: None)
     return {"out": out, "summary": summary, "names": names}
 
 
@@ -128,7 +128,7 @@ def test_real_subset_boards_match_the_released_d3_manifests(real_subset):
 
     released = {}
     for config in ("d3-a", "d3-b", "d3-c"):
-        data = json.loads(gzip.decompress((REPO_ROOT / "manifests" / f"{config}.json.gz").read_bytes()))
+        data = json.loads(gzip.decompress((REPO_ROOT / "pcbdata" / "resources" / "releases" / f"{config}.json.gz").read_bytes()))
         for board in data["configs"][config]["splits"]["full"]["boards"].values():
             released[board["name"]] = board["files"]
     built = json.loads((real_subset["out"] / "manifest.json").read_text())

@@ -9,8 +9,8 @@ sys.path.insert(0, str(Path(__file__).parent))  # the hand-made boards of boards
 
 
 @pytest.fixture(scope="module")
-def evaluator(engine_pool):
+def evaluator(kicad_pool):
     from pcbdata.evaluator import Evaluator
 
-    with Evaluator(pool=engine_pool) as ev:
+    with Evaluator(pool=kicad_pool) as ev:
         yield ev

@@ -9,9 +9,9 @@ import pytest
 
 from boards import base_board, pad, write_instance
 from pcbdata.cli import main
-from pcbdata.engine.specctra import fix_ses_resolution, strip_ses_placement
-from pcbdata.router import freeroute_available
-from pcbdata.router.dsn_flip import flip_back_components, restore_back_placements
+from pcbdata.kicad.specctra import fix_ses_resolution, strip_ses_placement
+from pcbdata.baselines.specctra import freeroute_available
+from pcbdata.specctra_text import flip_back_components, restore_back_placements
 
 DSN = """(pcb x
   (resolution um 10)

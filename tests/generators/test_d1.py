@@ -7,7 +7,7 @@ import pytest
 
 from pcbdata.board import Via, mm_to_nm
 from pcbdata.connector import connector_arrays, npz_bytes
-from pcbdata.engine import DrcReport
+from pcbdata.kicad import DrcReport
 from pcbdata.errors import UserError
 from pcbdata.generators import D1Generator, D1Params
 from pcbdata.kicad_writer import board_files
@@ -65,14 +65,14 @@ def test_seed_streams_are_disjoint_per_grid_split_and_index():
     assert generator.generate(1, "test", 5).cells != cells[("test", 5)]
 
 
-def test_generated_boards_pass_drc_with_only_their_unconnected_items(engine_pool, tmp_path):
+def test_generated_boards_pass_drc_with_only_their_unconnected_items(kicad_pool, tmp_path):
     paths = []
     for grid in GRIDS:
         for placement in ("uniform", "random-walk"):
             for index in range(4):
                 board = D1Generator(D1Params(grid=grid, placement=placement)).generate(0, "test", index).board
                 paths.append((str(write_board(tmp_path / f"{grid}-{placement}-{index}", board)),))
-    for outcome in engine_pool.map("pcbdata.engine.kicad:drc", paths):
+    for outcome in kicad_pool.map("pcbdata.kicad.basics:drc", paths):
         report = DrcReport.from_dict(outcome.value)
         assert report.counts_by_type() == {"unconnected_items": 5}, paths[outcome.index]
 
@@ -82,7 +82,7 @@ def _routed_reference(grid: int, index: int):
 
 
 @pytest.mark.parametrize("grid", GRIDS)
-def test_random_walk_reference_routing_is_clean_and_fully_connected(grid, engine_pool, tmp_path):
+def test_random_walk_reference_routing_is_clean_and_fully_connected(grid, kicad_pool, tmp_path):
     paths = []
     for index in range(3):
         instance = _routed_reference(grid, index)
@@ -91,12 +91,12 @@ def test_random_walk_reference_routing_is_clean_and_fully_connected(grid, engine
         for (start, target), net in zip(instance.cells, instance.board.net_names):
             assert start != target
         paths.append((str(write_board(tmp_path / str(index), instance.reference)),))
-    for outcome in engine_pool.map("pcbdata.engine.kicad:drc", paths):
+    for outcome in kicad_pool.map("pcbdata.kicad.basics:drc", paths):
         assert outcome.ok, outcome.error
         assert DrcReport.from_dict(outcome.value).violations == [], paths[outcome.index]
 
 
-def test_one_layer_rule_is_enforced_by_drc(engine_pool, tmp_path):
+def test_one_layer_rule_is_enforced_by_drc(kicad_pool, tmp_path):
     instance = _routed_reference(10, 0)
     reference = instance.reference
     first = reference.tracks[0]
@@ -105,7 +105,7 @@ def test_one_layer_rule_is_enforced_by_drc(engine_pool, tmp_path):
                                             drill=mm_to_nm(0.3), net=first.net)])
     paths = [(str(write_board(tmp_path / "back", on_back)),),
              (str(write_board(tmp_path / "via", with_via)),)]
-    outcomes = sorted(engine_pool.map("pcbdata.engine.kicad:drc", paths), key=lambda o: o.index)
+    outcomes = sorted(kicad_pool.map("pcbdata.kicad.basics:drc", paths), key=lambda o: o.index)
     for outcome in outcomes:
         report = DrcReport.from_dict(outcome.value)
         flagged = [v for v in report.violations if v.type == "items_not_allowed"]

@@ -6,7 +6,7 @@ from collections import Counter
 import pytest
 
 from pcbdata.board import mm_to_nm
-from pcbdata.engine import DrcReport
+from pcbdata.kicad import DrcReport
 from pcbdata.errors import GenerationError, UserError
 from pcbdata.generators import D2Generator, D2Params
 from pcbdata.presets import d2_level, d2_levels, parse_override
@@ -97,14 +97,14 @@ def test_files_carry_the_pad_shapes_and_rules(tmp_path):
     assert not (tmp_path / "board.kicad_dru").exists()
 
 
-def test_every_level_has_boards_that_pass_drc_with_only_unconnected_items(engine_pool, tmp_path):
+def test_every_level_has_boards_that_pass_drc_with_only_unconnected_items(kicad_pool, tmp_path):
     jobs = []
     for name in d2_levels():
         generator = D2Generator(d2_level(name).params)
         for index in range(6):
             board = generator.generate(0, "test", index).board
             jobs.append((str(write_board(tmp_path / f"{name}-{index}", board)), board.missing_connections))
-    for outcome in engine_pool.map("pcbdata.engine.kicad:drc", [(p,) for p, _ in jobs]):
+    for outcome in kicad_pool.map("pcbdata.kicad.basics:drc", [(p,) for p, _ in jobs]):
         report = DrcReport.from_dict(outcome.value)
         assert report.counts_by_type() == {"unconnected_items": jobs[outcome.index][1]}
 

@@ -76,7 +76,7 @@ def test_iter_boards_and_row_helpers(published, tmp_path):
         materialize_row(damaged, tmp_path / "x")
 
 
-def test_materialized_boards_load_and_check_in_kicad(published, tmp_path, engine_pool):
+def test_materialized_boards_load_and_check_in_kicad(published, tmp_path, kicad_pool):
     out = tmp_path / "tree"
     paths = []
     for config in ("d2", "d1-g10"):
@@ -84,7 +84,7 @@ def test_materialized_boards_load_and_check_in_kicad(published, tmp_path, engine
         folder = materialize_row(ds[0], out)
         paths.append(str(folder / "board.kicad_pcb"))
     for path, config in zip(paths, ("d2", "d1-g10")):
-        report = engine_pool.call("pcbdata.engine.kicad:drc", path)
+        report = kicad_pool.call("pcbdata.kicad.basics:drc", path)
         kinds = {v["section"] for v in report["violations"]}
         # a bare board: only the connections that routing will make are reported
         assert kinds == {"unconnected"}, (config, [v["type"] for v in report["violations"]])

@@ -1,4 +1,4 @@
-"""The committed manifests of released sets (`manifests/`) match a rebuild of their small splits:
+"""The committed manifests of released sets (`pcbdata/resources/releases/`) match a rebuild of their small splits:
 a change that alters boards, splits or parameters cannot land unnoticed."""
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ from pcbdata.manifest import read_manifest
 from pcbdata.publish import verify_published
 from pcbdata.publish.manifests import SUFFIX, compare, read_release
 
-MANIFESTS = Path(__file__).resolve().parents[2] / "manifests"
+MANIFESTS = Path(__file__).resolve().parents[2] / "pcbdata" / "resources" / "releases"
 SYNTHETIC = sorted(p for p in MANIFESTS.glob(f"*{SUFFIX}")
                    if read_release(p)["configs"][p.name[: -len(SUFFIX)]]["family"] in ("d1", "d2"))
 SMALL = ["validation", "test"]

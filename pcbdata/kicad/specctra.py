@@ -11,8 +11,8 @@ import subprocess
 import tempfile
 import time
 
-from pcbdata.engine.kicad import pcbnew_module as _pcbnew
-from pcbdata.engine.scoring import stage_board
+from pcbdata.kicad.basics import pcbnew_module as _pcbnew
+from pcbdata.kicad.scoring import stage_board
 from pcbdata.sexpr_text import block_end
 
 _RESOLUTION = re.compile(rb"\(resolution\s+(\w+)\s+(\d+)\)")
@@ -59,7 +59,7 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
                 flip_back: bool = False) -> dict:
     """Exports the board as DSN, runs `command` on it, imports the SES and saves the routed
     board to `out_path`. `fix_resolution` and `flip_back` work around two freeroute defects
-    (see `fix_ses_resolution` and `pcbdata.router.dsn_flip`).
+    (see `fix_ses_resolution` and `pcbdata.specctra_text`).
     Returns {ok, reason, seconds, router_seconds, tracks, vias}."""
     pcbnew = _pcbnew()
     start = time.perf_counter()
@@ -71,7 +71,7 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
             return {"ok": False, "reason": "KiCad could not export the DSN file"}
         back_refs: set[str] = set()
         if flip_back:
-            from pcbdata.router.dsn_flip import flip_back_components
+            from pcbdata.specctra_text import flip_back_components
 
             with open(dsn, encoding="utf-8") as handle:
                 text, back_refs = flip_back_components(handle.read())
@@ -100,7 +100,7 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
             with open(ses, "wb") as handle:
                 handle.write(fixed)
         if back_refs:
-            from pcbdata.router.dsn_flip import restore_back_placements
+            from pcbdata.specctra_text import restore_back_placements
 
             with open(ses, encoding="utf-8") as handle:
                 text = restore_back_placements(handle.read(), back_refs)

@@ -1,9 +1,9 @@
 """The worker pool turns crashes, hangs and exceptions into recorded reasons and goes on."""
-from pcbdata.engine import EngineError, EnginePool
+from pcbdata.kicad import KicadError, KicadPool
 
 
 def test_crash_timeout_and_exception_become_reasons_and_other_tasks_go_on():
-    with EnginePool(workers=2, task_timeout=3) as pool:
+    with KicadPool(workers=2, task_timeout=3) as pool:
         tasks = [("os:abort", ()), ("time:sleep", (30,)), ("math:sqrt", (-1,)),
                  ("math:sqrt", (16,)), ("math:sqrt", (25,))]
         outcomes = {o.index: o for o in pool.map(tasks[0][0], [()])}  # abort alone first
@@ -17,16 +17,16 @@ def test_crash_timeout_and_exception_become_reasons_and_other_tasks_go_on():
 
 
 def test_workers_are_recycled_after_their_task_budget():
-    with EnginePool(workers=1, task_timeout=30, tasks_per_worker=2) as pool:
+    with KicadPool(workers=1, task_timeout=30, tasks_per_worker=2) as pool:
         pids = [o.value for o in pool.map("os:getpid", [()] * 6)]
     assert len(set(pids)) == 3
 
 
 def test_call_raises_engine_error_with_the_reason(tmp_path):
-    with EnginePool(workers=1, task_timeout=30) as pool:
+    with KicadPool(workers=1, task_timeout=30) as pool:
         try:
-            pool.call("pcbdata.engine.kicad:drc", str(tmp_path / "missing.kicad_pcb"))
-        except EngineError as exc:
+            pool.call("pcbdata.kicad.basics:drc", str(tmp_path / "missing.kicad_pcb"))
+        except KicadError as exc:
             assert "no such board file" in str(exc)
         else:
-            raise AssertionError("expected EngineError")
+            raise AssertionError("expected KicadError")

@@ -1,6 +1,6 @@
 """D3 per-board engine work: KiCad 9 upgrade, project compatibility pass, DRC, bare board.
 
-Runs inside `EnginePool` worker processes only (one task per source board, see
+Runs inside `KicadPool` worker processes only (one task per source board, see
 `process_board`). Every file is written under a fresh work folder with plain names, so board
 names with spaces, quotes or parentheses never reach KiCad, and KiCad's project cache (which
 keys projects by path) never serves a stale project: each DRC runs on a path loaded for the
@@ -19,7 +19,7 @@ import re
 import shutil
 import tempfile
 import time
-from pcbdata.engine.kicad import board_drc_text, pcbnew_module as _pcbnew
+from pcbdata.kicad.basics import board_drc_text, pcbnew_module as _pcbnew
 
 BOARD = "board.kicad_pcb"
 PROJECT = "board.kicad_pro"
@@ -81,7 +81,7 @@ def min_copper_spacing(board_bytes: bytes, project: dict, work: str, seed: int,
 
     probe = with_default_clearance(project, probe_mm)
     path = _stage(os.path.join(work, "probe"), board_bytes, dumps_project(probe))
-    from pcbdata.engine.drc_report import parse_drc_report
+    from pcbdata.kicad.drc_report import parse_drc_report
 
     best = None
     for violation in parse_drc_report(_drc(path, seed)).violations:
@@ -221,7 +221,7 @@ def process_board(source_path: str, seed: int, compat: dict, keep: dict | None =
     from pcbdata.curation.build import is_kept
     from pcbdata.curation.projectfile import (default_clearance, dumps_project,
                                               patch_project)
-    from pcbdata.engine.drc_report import parse_drc_report
+    from pcbdata.kicad.drc_report import parse_drc_report
 
     skip_checks = (keep or {}).get("skip_warning_checks", ())
 

@@ -1,6 +1,6 @@
 """In-process DRC through the engine: real KiCad, each board with its own project rules."""
 from pcbdata.board import Board, Pad, Rules, mm_to_nm
-from pcbdata.engine import DrcReport, parse_drc_report
+from pcbdata.kicad import DrcReport, parse_drc_report
 from tests.helpers import write_board
 
 
@@ -12,12 +12,12 @@ def _two_pads(clearance_mm: float) -> Board:
     return Board(width=mm_to_nm(30), height=mm_to_nm(30), rules=rules, pads=pads, uuid_seed="t")
 
 
-def test_each_board_is_checked_with_its_own_project_in_a_long_lived_worker(engine_pool, tmp_path):
+def test_each_board_is_checked_with_its_own_project_in_a_long_lived_worker(kicad_pool, tmp_path):
     # The pads are 1 mm apart: fine at clearance 0.5, a violation at clearance 1.5.
     loose = write_board(tmp_path / "loose", _two_pads(0.5))
     tight = write_board(tmp_path / "tight", _two_pads(1.5))
     paths = [(str(p),) for p in (loose, tight, loose, tight, loose, tight)]
-    outcomes = sorted(engine_pool.map("pcbdata.engine.kicad:drc", paths), key=lambda o: o.index)
+    outcomes = sorted(kicad_pool.map("pcbdata.kicad.basics:drc", paths), key=lambda o: o.index)
     counts = [DrcReport.from_dict(o.value).counts_by_type(include_unconnected=False) for o in outcomes]
     assert counts == [{}, {"clearance": 1}] * 3
 

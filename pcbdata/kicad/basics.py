@@ -1,7 +1,7 @@
 """Everything that calls KiCad's `pcbnew` module. Runs inside engine worker processes only.
 
 `pcbnew` can crash or hang on some boards and some edits damage the process, so these
-functions are called through `pcbdata.engine.pool.EnginePool`, never in the main process.
+functions are called through `pcbdata.kicad.pool.KicadPool`, never in the main process.
 """
 from __future__ import annotations
 
@@ -72,7 +72,7 @@ def drc(path: str, project: str | None = None, custom_rules: str | None = None) 
     a copy of it is checked next to copies of them, so that e.g. `reference.kicad_pcb` or a
     submitted board is judged by its instance's `board.kicad_pro`, never by files of its own.
     """
-    from pcbdata.engine.drc_report import parse_drc_report
+    from pcbdata.kicad.drc_report import parse_drc_report
 
     if project is None:
         return parse_drc_report(drc_text(path)).to_dict()

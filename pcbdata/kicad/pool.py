@@ -132,7 +132,7 @@ class _Worker:
         self.kill()
 
 
-class EnginePool:
+class KicadPool:
     """Runs `module:function` tasks in `workers` KiCad processes.
 
     `map` yields one `Outcome` per argument tuple as tasks finish (not in input order).
@@ -145,7 +145,7 @@ class EnginePool:
         self.tasks_per_worker = tasks_per_worker
         self._slots = [_Worker(dict(env or {})) for _ in range(self.workers)]
 
-    def __enter__(self) -> "EnginePool":
+    def __enter__(self) -> "KicadPool":
         return self
 
     def __exit__(self, *exc) -> None:
@@ -186,12 +186,12 @@ class EnginePool:
             thread.join()
 
     def call(self, ref: str, *args) -> Any:
-        """Runs one task and returns its value; raises `EngineError` on failure."""
+        """Runs one task and returns its value; raises `KicadError` on failure."""
         outcome = next(iter(self.map(ref, [args])))
         if not outcome.ok:
-            raise EngineError(outcome.error)
+            raise KicadError(outcome.error)
         return outcome.value
 
 
-class EngineError(RuntimeError):
+class KicadError(RuntimeError):
     pass

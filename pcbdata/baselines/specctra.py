@@ -1,7 +1,7 @@
 """Baseline routing through a Specctra round trip (`pcbdata route`).
 
 KiCad exports each instance as a Specctra DSN file, a router turns it into an SES session, and
-KiCad imports the session and saves the routed board (`pcbdata.engine.specctra`). The default
+KiCad imports the session and saves the routed board (`pcbdata.kicad.specctra`). The default
 router is `freeroute` (pure Python, from PyPI: `pip install freeroute`); any command that reads
 DSN and writes SES can be plugged in with `--router-cmd`, e.g.
 `--router-cmd "java -jar freerouting.jar -de {dsn} -do {ses} -mp 20"`.
@@ -16,11 +16,11 @@ import shlex
 import sys
 from pathlib import Path
 
-from pcbdata.engine.pool import EnginePool
+from pcbdata.kicad.pool import KicadPool
 from pcbdata.errors import UserError
 from pcbdata.fsutil import write_atomic
 
-ROUTE = "pcbdata.engine.specctra:route_board"
+ROUTE = "pcbdata.kicad.specctra:route_board"
 #: freeroute options per rollout (cycled): rollout 0 is the package's most DRC-careful engine.
 FREEROUTE_VARIANTS = (
     ("--engine", "exact", "--shove", "--diagonal"),
@@ -82,7 +82,7 @@ def route_set(root: str | Path, config: str, split: str, out: str | Path, router
     if progress:
         print(f"pcbdata route: {len(jobs)} rollouts to route ({skipped} already done)",
               file=sys.stderr)
-    with EnginePool(workers=workers, task_timeout=router_timeout + 120) as pool:
+    with KicadPool(workers=workers, task_timeout=router_timeout + 120) as pool:
         for n, outcome in enumerate(pool.map(ROUTE, jobs), start=1):
             board_id, r, label, sidecar = meta[outcome.index]
             value = outcome.value if outcome.ok else {"ok": False, "reason": outcome.error}

@@ -9,26 +9,26 @@ import functools
 import shutil
 import subprocess
 
-from pcbdata.engine.drc_report import DrcReport, Violation, parse_drc_report
-from pcbdata.engine.pool import EngineError, EnginePool, Outcome
+from pcbdata.kicad.drc_report import DrcReport, Violation, parse_drc_report
+from pcbdata.kicad.pool import KicadError, KicadPool, Outcome
 
 REQUIRED_KICAD_VERSION = "9.0.8"
 
-__all__ = ["DrcReport", "Violation", "parse_drc_report", "EngineError", "EnginePool",
+__all__ = ["DrcReport", "Violation", "parse_drc_report", "KicadError", "KicadPool",
            "Outcome", "kicad_version", "kicad_cli", "REQUIRED_KICAD_VERSION"]
 
 
 @functools.lru_cache(maxsize=1)
 def kicad_version() -> str:
     """The version of KiCad's pcbnew module, asked in a worker so a broken install can't crash us."""
-    with EnginePool(workers=1, task_timeout=60) as pool:
-        return pool.call("pcbdata.engine.kicad:kicad_version")
+    with KicadPool(workers=1, task_timeout=60) as pool:
+        return pool.call("pcbdata.kicad.basics:kicad_version")
 
 
 def kicad_cli() -> str:
     path = shutil.which("kicad-cli")
     if path is None:
-        raise EngineError("kicad-cli not found on PATH; run scripts/install-kicad.sh")
+        raise KicadError("kicad-cli not found on PATH; run scripts/install-kicad.sh")
     return path
 
 

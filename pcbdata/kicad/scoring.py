@@ -1,6 +1,6 @@
 """The KiCad side of the evaluator: measures one board file with an instance's own rules.
 
-Runs inside engine worker processes only (`pcbdata.engine.pool.EnginePool`). Every function
+Runs inside engine worker processes only (`pcbdata.kicad.pool.KicadPool`). Every function
 returns plain data; the metrics themselves (DRC buckets, routability, potential, integrity) are
 computed from these measurements by the pure modules of `pcbdata.evaluator`.
 """
@@ -9,8 +9,8 @@ from __future__ import annotations
 import os
 import tempfile
 
-from pcbdata.engine.drc_report import parse_drc_report
-from pcbdata.engine.kicad import board_drc_text, pcbnew_module as _pcbnew, stage_with_project
+from pcbdata.kicad.drc_report import parse_drc_report
+from pcbdata.kicad.basics import board_drc_text, pcbnew_module as _pcbnew, stage_with_project
 
 #: Design settings stored in the `.kicad_pcb` itself (its `setup` section): a submission must
 #: not change them (e.g. a larger solder-mask expansion hides solder_mask_bridge errors).

@@ -1,1 +1,0 @@
-"""The versioned D3 curation recipe (installed as `pcbdata._recipe_files`)."""

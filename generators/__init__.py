@@ -1,1 +1,0 @@
-"""Versioned generator presets (installed as `pcbdata._preset_files`)."""
