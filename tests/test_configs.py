@@ -1,0 +1,34 @@
+"""The config registry: every published config is listed with its family, version and seed
+coupling, and names resolve (or fail with the closest known one)."""
+import pytest
+
+from pcbdata.configs import get_config, registry
+from pcbdata.errors import UserError
+from pcbdata.presets import d1_preset, d2_levels
+
+
+def test_registry_lists_every_preset_grid_level_and_tier():
+    names = set(registry())
+    assert {f"d1-g{g}" for g in d1_preset().grid_sizes} <= names
+    levels = {"d2" if n == "default" else f"d2-{n}" for n in d2_levels()}
+    assert levels <= names
+    assert {"d3-a", "d3-b", "d3-c"} <= names
+
+
+def test_d2_levels_share_one_stream_per_board_index():
+    default, hard = get_config("d2").generator(), get_config("d2-hard").generator()
+    # Same stream, different parameters: the first draw (board width) uses the same number.
+    a, b = default.generate(0, "test", 3).board, hard.generate(0, "test", 3).board
+    lo_a, hi_a = default.params.width_mm
+    lo_b, hi_b = hard.params.width_mm
+    assert (a.width / 1e6 - lo_a) / (hi_a - lo_a) == pytest.approx((b.width / 1e6 - lo_b) / (hi_b - lo_b), abs=1e-4)
+    assert "shared by every level" in get_config("d2-hard").seed_coupling
+
+
+def test_any_d1_grid_resolves_and_unknown_names_suggest():
+    spec = get_config("d1-g37-random-walk")
+    assert (spec.grid, spec.placement, spec.family) == (37, "random-walk", "d1")
+    with pytest.raises(UserError, match="did you mean 'd2-hard'"):
+        get_config("d2-hardd")
+    with pytest.raises(UserError, match="curated"):
+        get_config("d3-a").generator()
