@@ -1,5 +1,7 @@
 """Checks a built board set against its manifest: every file's sha256, nothing missing, nothing
-extra, no leftovers of an interrupted run, and (when published) the parquet rows and card."""
+extra (at any level: top, config, split and board folders), no leftovers of an interrupted run,
+and (when published) the parquet rows and card. `verify_release` compares the manifest itself
+with the release pinned in the package (`pcbdata verify DIR --release`)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,46 +9,105 @@ from pathlib import Path
 from pcbdata.fsutil import sha256_file
 from pcbdata.manifest import MANIFEST_NAME, read_manifest
 
+# A `hf download --local-dir` of a set adds its metadata folder and the Hub repo's attributes.
+HUB_DOWNLOAD_ENTRIES = (".cache", ".gitattributes")
+
 
 def verify_set(root: str | Path) -> list[str]:
     """Problems found, one line each, naming the board and file; empty when the set is intact."""
     root = Path(root)
     manifest = read_manifest(root)
     problems: list[str] = []
-    known_top = {MANIFEST_NAME, ".pcbdata"}
+    shards = _published_shards(root)
     for config_name, config in sorted(manifest["configs"].items()):
-        known_top.add(config_name)
-        config_dir = root / config_name
-        known_in_config: set[str] = set()
-        for split_name, split in sorted(config["splits"].items()):
-            known_in_config.add(split_name)
-            for array_name, sha in split.get("arrays", {}).items():
-                known_in_config.add(array_name)
-                problems += _check_file(config_dir / array_name, sha, f"{config_name}/{array_name}")
-            split_dir = config_dir / split_name
-            if not split_dir.is_dir():
-                if split["boards"]:  # an empty split (e.g. a tier a small corpus leaves empty) has none
-                    problems.append(f"{config_name}/{split_name}: split folder missing "
-                                    f"({len(split['boards'])} boards)")
-                continue
-            on_disk = {p.name for p in split_dir.iterdir()}
-            for board_id, board in sorted(split["boards"].items()):
-                where = f"{config_name}/{split_name}/{board_id}"
-                board_dir = split_dir / board_id
-                if board_id not in on_disk:
-                    problems.append(f"{where}: board missing")
-                    continue
-                files = board["files"]
-                for name, sha in sorted(files.items()):
-                    problems += _check_file(board_dir / name, sha, f"{where}/{name}")
-                for extra in sorted({p.name for p in board_dir.iterdir()} - set(files)):
-                    problems.append(f"{where}/{extra}: extra file not in the manifest")
-            for extra in sorted(on_disk - set(split["boards"])):
-                problems.append(f"{config_name}/{split_name}/{extra}: extra entry not in the manifest")
-        if config_dir.is_dir():
-            problems += [f"{config_name}/{p.name}: leftover of an interrupted run"
-                         for p in sorted(config_dir.iterdir()) if p.name.endswith(".tmp")]
+        problems += _check_config(root / config_name, config_name, config, shards)
+    problems += _unlisted_top_entries(root, manifest)
+    problems += _unlisted_pictures(root)
     problems += _published_problems(root, manifest)
+    return problems
+
+
+def verify_release(root: str | Path, configs: list[str] | None = None):
+    """The set's manifest against the releases pinned in the package: one `ReleaseCheck` per
+    config (its `problems`, and `line()` naming the pinned file it was compared with)."""
+    from pcbdata.publish.manifests import check_release
+
+    return check_release(read_manifest(root), configs)
+
+
+def allowed_top_entries() -> set[str]:
+    """Top-level names a set may hold besides `manifest.json` and its config folders: the
+    published parts, the D3 build's tables, the builds' resume state and a Hub download's
+    metadata. Leftovers of interrupted runs (`.*.tmp`) are reported separately."""
+    from pcbdata.curation.build import STATE_DIR as D3_STATE_DIR
+    from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, LOCK_NAME, PICTURES_DIR,
+                                        STATE_NAME)
+    from pcbdata.publish.push import EXTRA_TOP_FILES
+    from pcbdata.synthetic_build import STATE_DIR as SYNTHETIC_STATE_DIR
+
+    return {MANIFEST_NAME, CARD_NAME, STATE_NAME, ATTRIBUTION_NAME, PICTURES_DIR, LOCK_NAME,
+            SYNTHETIC_STATE_DIR, D3_STATE_DIR, *EXTRA_TOP_FILES, *HUB_DOWNLOAD_ENTRIES}
+
+
+def _is_leftover(name: str) -> bool:
+    """A temporary file or folder of `fsutil.write_atomic` / `write_dir_atomic`."""
+    return name.startswith(".") and name.endswith(".tmp")
+
+
+def _check_config(config_dir: Path, config_name: str, config: dict, shards: set[str]) -> list[str]:
+    problems: list[str] = []
+    known = set(config["splits"])
+    for split_name, split in sorted(config["splits"].items()):
+        where = f"{config_name}/{split_name}"
+        known.update(split.get("arrays", {}))
+        for array_name, sha in split.get("arrays", {}).items():
+            problems += _check_file(config_dir / array_name, sha, f"{config_name}/{array_name}")
+        if split.get("count", len(split["boards"])) != len(split["boards"]):
+            problems.append(f"{where}: count says {split['count']} boards but the manifest "
+                            f"lists {len(split['boards'])}")
+        problems += _check_split(config_dir / split_name, where, split["boards"])
+    if config_dir.is_dir():
+        for entry in sorted(config_dir.iterdir()):
+            rel = f"{config_name}/{entry.name}"
+            if _is_leftover(entry.name):
+                problems.append(f"{rel}: leftover of an interrupted run")
+            elif entry.name in known or rel in shards:
+                continue
+            elif entry.is_dir():
+                problems.append(f"{rel}: split folder not in the manifest "
+                                f"({_count(entry)} entries unlisted)")
+            else:
+                problems.append(f"{rel}: extra file not in the manifest"
+                                + (" (a shard the card does not list)" if rel.endswith(".parquet") else ""))
+    return problems
+
+
+def _check_split(split_dir: Path, where: str, boards: dict) -> list[str]:
+    if not split_dir.is_dir():
+        if boards:  # an empty split (e.g. a tier a small corpus leaves empty) has no folder
+            return [f"{where}: split folder missing ({len(boards)} boards)"]
+        return []
+    problems: list[str] = []
+    on_disk = {p.name for p in split_dir.iterdir()}
+    for board_id, board in sorted(boards.items()):
+        if board_id not in on_disk:
+            problems.append(f"{where}/{board_id}: board missing")
+        else:
+            problems += _check_board(split_dir / board_id, f"{where}/{board_id}", board["files"])
+    for extra in sorted(on_disk - set(boards)):
+        what = "leftover of an interrupted run" if _is_leftover(extra) else "extra entry not in the manifest"
+        problems.append(f"{where}/{extra}: {what}")
+    return problems
+
+
+def _check_board(board_dir: Path, where: str, files: dict[str, str]) -> list[str]:
+    if not board_dir.is_dir():
+        return [f"{where}: not a folder"]
+    problems: list[str] = []
+    for name, sha in sorted(files.items()):
+        problems += _check_file(board_dir / name, sha, f"{where}/{name}")
+    for extra in sorted({p.name for p in board_dir.iterdir()} - set(files)):
+        problems.append(f"{where}/{extra}: extra file not in the manifest")
     return problems
 
 
@@ -57,6 +118,56 @@ def _check_file(path: Path, sha: str, where: str) -> list[str]:
     if actual != sha:
         return [f"{where}: altered (sha256 {actual[:12]}..., manifest says {sha[:12]}...)"]
     return []
+
+
+def _count(folder: Path) -> int:
+    return sum(1 for _ in folder.iterdir())
+
+
+def _unlisted_top_entries(root: Path, manifest: dict) -> list[str]:
+    """Top-level entries that are neither configs of the manifest nor a known part of a set,
+    e.g. the config folder of a concurrent build whose manifest entry was overwritten."""
+    allowed = allowed_top_entries() | set(manifest["configs"])
+    problems = []
+    for entry in sorted(root.iterdir()):
+        if entry.name in allowed or _is_leftover(entry.name):
+            continue  # leftovers: `_published_problems` names them
+        if entry.is_dir():
+            problems.append(f"{entry.name}: config folder not in the manifest "
+                            f"({_count(entry)} entries unlisted)")
+        else:
+            problems.append(f"{entry.name}: extra file not in the manifest")
+    return problems
+
+
+def _published_shards(root: Path) -> set[str]:
+    """Shards the publication lists (publish.json and the card): the other files of a config
+    folder that are not in the manifest."""
+    from pcbdata.errors import UserError
+    from pcbdata.publish.card import read_card_configs
+    from pcbdata.publish.layout import CARD_NAME
+    from pcbdata.publish.verify import recorded_shard_hashes
+
+    shards = set(recorded_shard_hashes(root))
+    if (root / CARD_NAME).is_file():
+        try:
+            card = read_card_configs(root)
+        except UserError:
+            return shards  # a stub or broken card: `verify_published` reports it
+        shards.update(rel for splits in card.values() for paths in splits.values() for rel in paths)
+    return shards
+
+
+def _unlisted_pictures(root: Path) -> list[str]:
+    from pcbdata.publish.layout import PICTURES_DIR
+    from pcbdata.publish.verify import recorded_pictures
+
+    folder = root / PICTURES_DIR
+    recorded = recorded_pictures(root)
+    if not folder.is_dir() or recorded is None:
+        return []
+    on_disk = {str(p.relative_to(root)) for p in folder.rglob("*") if p.is_file()}
+    return [f"{rel}: extra file not listed in publish.json" for rel in sorted(on_disk - recorded)]
 
 
 def _published_problems(root: Path, manifest: dict) -> list[str]:

@@ -59,14 +59,26 @@ def _cache_dir(root: Path, shards: list[str], recorded: dict[str, str]) -> Path:
     return Path(datasets.config.HF_DATASETS_CACHE) / "pcbdata" / digest.hexdigest()[:20]
 
 
-def load(config: str, split: str = "test", root=None, **kwargs):
+def load(config: str, split: str = "test", root=None, *, release: bool = False, **kwargs):
     """One config and split of a board set as a `datasets.Dataset`.
 
     `root` is a built and published set folder or a Hub repo id (default: $PCBDATA_ROOT);
-    other keyword arguments go to `datasets.load_dataset` (e.g. `cache_dir`, `num_proc`)."""
+    other keyword arguments go to `datasets.load_dataset` (e.g. `cache_dir`, `num_proc`).
+    `release=True` also checks the rows against the release pinned in pcbdata (boards, file
+    hashes and texts, set version, parameters) and raises UserError naming what differs; a
+    local set whose manifest declares a subset of the split (a `--count` build) passes if its
+    rows are the boards the manifest lists, each the released one."""
+    root = _resolve_root(root)
+    pinned = _pinned_release(config) if release else None  # before loading: fail fast
+    ds = _load_split(config, split, root, **kwargs)
+    if pinned is not None:
+        _require_release(ds, pinned, split, root)
+    return ds
+
+
+def _load_split(config: str, split: str, root: str | Path, **kwargs):
     import datasets
 
-    root = _resolve_root(root)
     if isinstance(root, str):
         try:
             return datasets.load_dataset(root, config, split=split, **kwargs)
@@ -106,6 +118,45 @@ def load(config: str, split: str = "test", root=None, **kwargs):
         if problem:
             raise UserError(problem) from None
         raise
+
+
+def _pinned_release(config: str):
+    from pcbdata.publish.manifests import pinned_release, released_configs
+
+    release = pinned_release(config)
+    if release is None:
+        raise UserError(f"{config}: no pinned release of this config in pcbdata (pinned: "
+                        f"{', '.join(released_configs())}); load it without release=True")
+    return release
+
+
+def _require_release(ds, release, split: str, root: str | Path) -> None:
+    """Raises UserError unless the loaded rows are the pinned release's (or, for a local set
+    whose manifest declares fewer boards, the boards that manifest lists, each released)."""
+    from pcbdata.manifest import MANIFEST_NAME, read_manifest
+    from pcbdata.publish.manifests import check_release
+    from pcbdata.publish.verify import release_row_problems
+
+    config = release.config
+    problems, expected = [], None
+    if isinstance(root, Path) and (root / MANIFEST_NAME).is_file():
+        # the manifest says whether the set is the whole split or a declared subset of it
+        manifest = read_manifest(root)
+        if config in manifest.get("configs", {}) and split in manifest["configs"][config]["splits"]:
+            problems += check_release(manifest, [config], [split])[0].problems
+            expected = set(manifest["configs"][config]["splits"][split]["boards"])
+    columns = [c for c in _RELEASE_COLUMNS if c in ds.column_names]
+    problems += release_row_problems(ds.select_columns(columns), release, split, expected)
+    if problems:
+        more = f"; ... {len(problems) - 5} more" if len(problems) > 5 else ""
+        raise UserError(f"{config}/{split} of {root} does not match the pinned "
+                        f"{release.describe()}: {len(problems)} problem(s): "
+                        f"{'; '.join(problems[:5])}{more}")
+
+
+# what `release_row_problems` reads: identity, the file texts and their hashes
+_RELEASE_COLUMNS = ("board_id", "set_version", "parameters", "redistributable", "other_files",
+                    *(c for pair in FILE_COLUMNS.values() for c in pair))
 
 
 def _empty_split(root: Path, shards: list[str]) -> bool:

@@ -5,6 +5,10 @@ only on the content): the manifest of the released build restricted to that conf
 board's sha256. A test rebuilds the small splits (validation, test) and compares them with these
 files, so a change that alters boards cannot land unnoticed.
 
+`check_release(manifest)` compares a set's own manifest with these pinned releases
+(`pcbdata verify DIR --release`, `pcbdata.load(..., release=True)`): a set whose manifest was
+edited together with its boards still verifies against itself, but not against the pin.
+
     python -m pcbdata.publish.manifests export DIR [--configs d2,d1-g10] [--out manifests]
     python -m pcbdata.publish.manifests check DIR  [--dir manifests]   # DIR: a (partial) rebuild
 """
@@ -14,11 +18,13 @@ import argparse
 import gzip
 import json
 import sys
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from pcbdata.errors import UserError
 from pcbdata.fsutil import write_atomic
 from pcbdata.manifest import read_manifest
+from pcbdata.resources import resource_path
 
 SUFFIX = ".json.gz"
 # Config fields that may differ between a release and a partial rebuild of it.
@@ -50,6 +56,164 @@ def read_release(path: str | Path) -> dict:
         return json.load(handle)
 
 
+def released_configs() -> list[str]:
+    """Configs with a pinned release in this package."""
+    from pcbdata.publish.layout import config_key
+
+    folder = resource_path("releases")
+    return sorted((p.name[: -len(SUFFIX)] for p in folder.iterdir() if p.name.endswith(SUFFIX)),
+                  key=config_key)
+
+
+@dataclass
+class PinnedRelease:
+    config: str
+    source: str  # the packaged file, named in every report so the reader knows what was compared
+    manifest: dict
+
+    @property
+    def entry(self) -> dict:
+        return self.manifest["configs"][self.config]
+
+    @property
+    def version(self) -> str:
+        return str(self.entry.get("set_version"))
+
+    def describe(self) -> str:
+        return f"release {self.config} {self.version} ({self.source})"
+
+
+def pinned_release(config: str) -> PinnedRelease | None:
+    path = resource_path("releases", f"{config}{SUFFIX}")
+    if not path.is_file():
+        return None
+    # read through the resource API: the package may live in a zip, not as plain files
+    manifest = json.loads(gzip.decompress(path.read_bytes()).decode("utf-8"))
+    return PinnedRelease(config, str(path), manifest)
+
+
+@dataclass
+class ReleaseCheck:
+    """One config of a set compared with its pinned release."""
+
+    config: str
+    release: PinnedRelease | None
+    problems: list[str] = field(default_factory=list)
+    compared: list[tuple[str, int, int]] = field(default_factory=list)  # (split, held, released)
+    absent: list[str] = field(default_factory=list)  # release splits the set does not hold
+
+    @property
+    def subset(self) -> bool:
+        return bool(self.absent) or any(held < released for _, held, released in self.compared)
+
+    def line(self) -> str:
+        """One line saying what was compared with which pinned file, and the outcome."""
+        if self.release is None:
+            return f"{self.config}: no pinned release"
+        status = "matches" if not self.problems else f"{len(self.problems)} difference(s)"
+        kind = "subset of the release" if self.subset else "whole release"
+        splits = ", ".join(f"{split} {held} of {released} boards"
+                           for split, held, released in self.compared) or "no splits"
+        absent = f"; not in this set: {', '.join(self.absent)}" if self.absent else ""
+        return f"{self.release.describe()}: {status} ({kind}: {splits}{absent})"
+
+
+def check_release(manifest: dict, configs: list[str] | None = None,
+                  splits: list[str] | None = None) -> list[ReleaseCheck]:
+    """Each config of `manifest` (or of `configs`) against its pinned release.
+
+    Subsets pass: a split the set does not hold is listed in `absent`, and a split whose `count`
+    is below the release's (a `--count` build) must hold only boards of the release, each
+    identical. A split that claims the release's count must hold exactly its boards (and the
+    same arrays). Every config-level field (set version, parameters or recipe, seed, ...) must
+    equal the release's; `kicad_checked` may differ (a build with `--no-check` holds the same
+    boards). A config without a pinned release is a problem: it cannot be the released set."""
+    checks = []
+    for config in configs or sorted(manifest.get("configs", {})):
+        entry = manifest.get("configs", {}).get(config)
+        if entry is None:
+            raise UserError(f"no config {config!r} in the set's manifest")
+        release = pinned_release(config)
+        check = ReleaseCheck(config, release)
+        if release is None:
+            check.problems.append(
+                f"{config}: no pinned release of this config in pcbdata (pinned: "
+                f"{', '.join(released_configs())}); it cannot be checked with --release")
+        else:
+            _check_config(check, release, entry, splits)
+        checks.append(check)
+    return checks
+
+
+def _check_config(check: ReleaseCheck, release: PinnedRelease, entry: dict,
+                  splits: list[str] | None) -> None:
+    config, pinned = check.config, release.entry
+    for key in sorted((set(pinned) | set(entry)) - _VOLATILE):
+        for path, old, new in _differences(key, pinned.get(key), entry.get(key)):
+            check.problems.append(f"{config}: {path} is {_short(new)}, the release has {_short(old)}")
+    wanted = splits or sorted(entry.get("splits", {}))
+    check.absent = [s for s in sorted(pinned["splits"]) if s not in wanted]
+    for split in wanted:
+        if split not in pinned["splits"]:
+            check.problems.append(f"{config}/{split}: split not in the pinned release (release "
+                                  f"splits: {', '.join(sorted(pinned['splits']))})")
+        elif split not in entry.get("splits", {}):
+            raise UserError(f"no split {config}/{split} in the set's manifest")
+        else:
+            check.problems += _check_split(f"{config}/{split}", pinned["splits"][split],
+                                           entry["splits"][split])
+            check.compared.append((split, entry["splits"][split].get("count", 0),
+                                   pinned["splits"][split].get("count", 0)))
+
+
+def _check_split(where: str, pinned: dict, split: dict) -> list[str]:
+    count, full = split.get("count", 0), pinned.get("count", 0)
+    if count > full:
+        return [f"{where}: {count} boards, the pinned release has {full}"]
+    problems = []
+    whole = count == full  # a split that claims the release's size must be the release's split
+    if whole:
+        for key in sorted((set(pinned) | set(split)) - _SPLIT_VOLATILE - {"boards", "count"}):
+            for path, old, new in _differences(key, pinned.get(key), split.get(key)):
+                problems.append(f"{where}: {path} differs from the pinned release")
+    released, held = pinned.get("boards", {}), split.get("boards", {})
+    for board_id in sorted(set(held) | (set(released) if whole else set())):
+        if board_id not in released:
+            problems.append(f"{where}/{board_id}: not in the pinned release")
+        elif board_id not in held:
+            problems.append(f"{where}/{board_id}: in the pinned release but not in the set "
+                            f"(its split claims all {full} boards)")
+        elif held[board_id] != released[board_id]:
+            problems.append(f"{where}/{board_id}: differs from the pinned release "
+                            f"({', '.join(changed_fields(released[board_id], held[board_id]))})")
+    return problems
+
+
+def changed_fields(old: dict, new: dict) -> list[str]:
+    """What differs between two board entries: file names first, then facts."""
+    files_old, files_new = old.get("files", {}), new.get("files", {})
+    files = [n for n in sorted(set(files_old) | set(files_new)) if files_old.get(n) != files_new.get(n)]
+    facts = [k for k in sorted((set(old) | set(new)) - {"files"}) if old.get(k) != new.get(k)]
+    return files + facts
+
+
+def _differences(path: str, old, new, depth: int = 2):
+    """(dotted path, old, new) of each differing leaf, looking `depth` dict levels deep, so a
+    changed parameter is named rather than the whole parameter table printed."""
+    if old == new:
+        return
+    if depth and isinstance(old, dict) and isinstance(new, dict):
+        for key in sorted(set(old) | set(new)):
+            yield from _differences(f"{path}.{key}", old.get(key), new.get(key), depth - 1)
+    else:
+        yield path, old, new
+
+
+def _short(value, limit: int = 80) -> str:
+    text = "(absent)" if value is None else repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def compare(release: dict, rebuilt: dict, config: str, splits: list[str] | None = None) -> list[str]:
     """Differences between a released config and a rebuild of some of its splits."""
     problems = []
@@ -75,12 +239,7 @@ def compare(release: dict, rebuilt: dict, config: str, splits: list[str] | None 
             elif board_id not in boards_a:
                 problems.append(f"{config}/{split}/{board_id}: not in the release")
             elif boards_a[board_id] != boards_b[board_id]:
-                fa, fb = boards_a[board_id], boards_b[board_id]
-                what = sorted(k for k in set(fa) | set(fb) if fa.get(k) != fb.get(k))
-                if "files" in what:
-                    what.remove("files")
-                    what = [n for n in sorted(set(fa["files"]) | set(fb.get("files", {})))
-                            if fa["files"].get(n) != fb.get("files", {}).get(n)] + what
+                what = changed_fields(boards_a[board_id], boards_b[board_id])
                 problems.append(f"{config}/{split}/{board_id}: changed ({', '.join(what)})")
     return problems
 

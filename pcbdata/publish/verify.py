@@ -4,6 +4,7 @@ from __future__ import annotations
 import json
 from collections import Counter
 from pathlib import Path
+from typing import Iterable
 
 import pyarrow.parquet as pq
 
@@ -26,6 +27,17 @@ def recorded_shard_hashes(root: Path) -> dict[str, str]:
                 for rel, info in split.get("shards", {}).items()}
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return {}
+
+
+def recorded_pictures(root: Path) -> set[str] | None:
+    """Picture paths `publish.json` recorded (per config and set-wide); None without it."""
+    try:
+        state = json.loads((root / STATE_NAME).read_text(encoding="utf-8"))
+        per_config = {rel for cfg in state.get("configs", {}).values()
+                      for rel in cfg.get("pictures", [])}
+        return per_config | set(state.get("pictures", []))
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        return None
 
 
 def verify_published(root: str | Path, manifest: dict) -> list[str]:
@@ -107,7 +119,10 @@ def _verify_split(root: Path, config: str, split: str, boards: dict, shards: lis
     return problems
 
 
-def _check_row(where: str, board_id: str, row: dict, entry: dict) -> list[str]:
+def _check_row(where: str, board_id: str, row: dict, entry: dict,
+               against: str = "the manifest") -> list[str]:
+    """One row's files (hashes, and texts unless a recipe row) against a board `entry` of the
+    manifest (or, `against` "the pinned release", of a release manifest)."""
     problems = []
     files = dict(entry.get("files", {}))
     recipe = not is_redistributable(entry)
@@ -122,11 +137,11 @@ def _check_row(where: str, board_id: str, row: dict, entry: dict) -> list[str]:
             problems.append(f"{where}/{board_id}: {name} missing from its row")
             continue
         if name not in files:
-            problems.append(f"{where}/{board_id}: row has {name}, which the manifest does not list")
+            problems.append(f"{where}/{board_id}: row has {name}, which {against} does not list")
             continue
         text, digest = present[name]
         if digest != files[name]:
-            problems.append(f"{where}/{board_id}: {name} altered (row sha256 differs from the manifest)")
+            problems.append(f"{where}/{board_id}: {name} altered (row sha256 differs from {against})")
         elif recipe:
             if text is not None:
                 problems.append(f"{where}/{board_id}: recipe row (not redistributable) carries "
@@ -136,5 +151,58 @@ def _check_row(where: str, board_id: str, row: dict, entry: dict) -> list[str]:
         elif sha256_bytes(text.encode("utf-8")) != files[name]:
             problems.append(f"{where}/{board_id}: {name} altered (text does not match its sha256)")
     if bool(row.get("redistributable", True)) == recipe:
-        problems.append(f"{where}/{board_id}: redistributable flag differs from the manifest")
+        problems.append(f"{where}/{board_id}: redistributable flag differs from {against}")
     return problems
+
+
+def release_row_problems(rows: Iterable[dict], release, split: str,
+                         expected: set[str] | None = None) -> list[str]:
+    """Loaded rows of one split against a `PinnedRelease`: every row is a board of the release
+    split with the same files (hashes, and texts that match them), the release's set version
+    and parameters, and the rows hold exactly `expected` board ids (default: the whole release
+    split; a set whose manifest declares a subset passes its own board ids)."""
+    where = f"{release.config}/{split}"
+    released = release.entry["splits"].get(split)
+    if released is None:
+        return [f"{where}: split not in the pinned release"]
+    boards = released.get("boards", {})
+    expected = set(boards) if expected is None else expected
+    against = "the pinned release"
+    problems, seen, versions, parameters = [], Counter(), set(), set()
+    for row in rows:
+        board_id = row["board_id"]
+        seen[board_id] += 1
+        versions.add(row.get("set_version"))
+        parameters.add(row.get("parameters"))
+        if board_id not in boards:
+            problems.append(f"{where}/{board_id}: not in the pinned release")
+        else:
+            problems += _check_row(where, board_id, row, boards[board_id], against)
+    problems += _release_identity(where, release, versions, parameters)
+    for board_id in sorted(expected - set(seen)):
+        source = "in the pinned release" if board_id in boards else "listed in the set's manifest"
+        problems.append(f"{where}/{board_id}: {source} but not in the rows")
+    for board_id in sorted((set(seen) & set(boards)) - expected):
+        problems.append(f"{where}/{board_id}: row not in the set's manifest")
+    problems += [f"{where}/{board_id}: {count} rows"
+                 for board_id, count in sorted(seen.items()) if count > 1]
+    return problems
+
+
+def _release_identity(where: str, release, versions: set, parameters: set) -> list[str]:
+    """The set version and parameters (or recipe) columns, once per split, not once per row."""
+    problems = []
+    wanted = release.entry.get("parameters", release.entry.get("recipe"))
+    for version in sorted((v for v in versions if v != release.version), key=str):
+        problems.append(f"{where}: rows say set_version {version!r}, "
+                        f"the release is {release.version!r}")
+    if any(_json_or_none(text) != wanted for text in parameters):
+        problems.append(f"{where}: rows carry other parameters than the pinned release")
+    return problems
+
+
+def _json_or_none(text: str | None):
+    try:
+        return json.loads(text) if text is not None else None
+    except ValueError:
+        return None  # unreadable parameters are "other parameters", not a crash
