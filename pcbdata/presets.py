@@ -67,13 +67,14 @@ def d2_level(name: str, overrides: dict | None = None) -> D2Level:
         close = difflib.get_close_matches(name, list(levels), n=1, cutoff=0.3)
         hint = f"; did you mean {close[0]!r}?" if close else ""
         raise UserError(f"unknown D2 level {name!r}{hint} (levels: {', '.join(sorted(levels, key=lambda n: levels[n]['rank']))})")
-    spec = {k: v for k, v in levels[name].items() if k not in ("rank", "description")}
+    spec = {k: v for k, v in levels[name].items() if k not in ("rank", "description", "version")}
     where = f"pcbdata/resources/presets/d2_levels.toml level {name!r}"
     D2Params.from_dict(spec, where)  # the preset alone must be valid
     merged = {**spec, **(overrides or {})}
     params = D2Params.from_dict(merged, "--set" if overrides else where)
     return D2Level(name=name, rank=levels[name]["rank"], description=levels[name]["description"],
-                   params=params, version=data["version"], seed=data["seed"],
+                   params=params, version=levels[name].get("version", data["version"]),
+                   seed=data["seed"],
                    splits=dict(data["splits"]), overrides=dict(overrides or {}))
 
 

@@ -124,3 +124,149 @@ def restore_back_placements(ses: str, refs: set[str]) -> str:
 
     ses = re.sub(r"(\(place\s+(\S+)\s+\S+\s+\S+\s+)(front)(\s)", place, ses)
     return ses.replace(_SUFFIX, "")
+
+
+# --- freeroute's via model -------------------------------------------------------------------
+# freeroute 2026.7.14 models every via as a square the size of a track and never reads the via
+# padstack's size, so it drops 1.2 mm vias 0.6 mm from other nets' tracks. Planning with tracks
+# as wide as the largest via makes every track keep room for a via; the real widths are written
+# back into the session before KiCad imports it.
+
+_WIDTH = re.compile(r"\(width\s+([\d.]+)\)")
+_CIRCLE = re.compile(r"\(circle\s+\S+\s+([\d.]+)")
+_NAME = r'("(?:[^"\\]|\\.)*"|[^\s()]+)'
+
+
+def via_diameters(dsn: str) -> list[float]:
+    """Diameters of the padstacks the DSN declares as vias (`(via ...)`, `(use_via ...)`)."""
+    names = set()
+    for match in re.finditer(r"\((?:via|use_via)\s+" + _NAME, dsn):
+        names.add(match.group(1).strip('"'))
+    sizes = []
+    for name in sorted(names):
+        span = _find_padstack(dsn, name)
+        if span is not None:
+            sizes += [float(d) for d in _CIRCLE.findall(dsn[span[0]:span[1]])]
+    return sizes
+
+
+def _find_padstack(dsn: str, name: str) -> tuple[int, int] | None:
+    quoted = re.escape(f'"{name}"') + "|" + re.escape(name)
+    match = re.search(r"\(padstack\s+(?:" + quoted + r")(?=[\s)])", dsn)
+    return None if match is None else (match.start(), _block(dsn, match.start()))
+
+
+def _rule_blocks(dsn: str) -> list[tuple[int, int]]:
+    return [(m.start(), _block(dsn, m.start())) for m in re.finditer(r"\(rule\s", dsn)]
+
+
+def net_widths(dsn: str) -> tuple[float | None, dict[str, float]]:
+    """(default track width of the structure rule, {net: width of its class rule})."""
+    default = None
+    structure = re.search(r"\(structure\s", dsn)
+    if structure is not None:
+        end = _block(dsn, structure.start())
+        rule = re.search(r"\(rule\s", dsn[structure.start():end])
+        if rule is not None:
+            width = _WIDTH.search(dsn, structure.start() + rule.start())
+            default = float(width.group(1)) if width else None
+    per_net: dict[str, float] = {}
+    for match in re.finditer(r"\(class\s+" + _NAME, dsn):
+        block = dsn[match.start():_block(dsn, match.start())]
+        head = block.split("(", 2)[1][len("class"):]  # names before the first sub-block
+        width = _WIDTH.search(block)
+        if width is None:
+            continue
+        for net in re.findall(_NAME, head)[1:]:
+            per_net[net.strip('"')] = float(width.group(1))
+    return default, per_net
+
+
+def widen_wires_for_vias(dsn: str) -> tuple[str, float | None]:
+    """The DSN with every rule's track width raised to the largest via diameter, and that
+    planning width (None when the DSN declares no via, or no width is smaller)."""
+    vias = via_diameters(dsn)
+    if not vias:
+        return dsn, None
+    planning = max(vias)
+    out, pos = [], 0
+    for start, end in _rule_blocks(dsn):
+        block = _WIDTH.sub(lambda m: f"(width {_number(max(float(m.group(1)), planning))})",
+                           dsn[start:end])
+        out += [dsn[pos:start], block]
+        pos = end
+    out.append(dsn[pos:])
+    return "".join(out), planning
+
+
+def restore_wire_widths(ses: str, planning: float, default: float | None,
+                        per_net: dict[str, float]) -> str:
+    """Writes each net's real track width back over the planning width in the SES wires."""
+    out, pos = [], 0
+    for match in re.finditer(r"\(net\s+" + _NAME, ses):
+        if match.start() < pos:
+            continue
+        end = _block(ses, match.start())
+        real = per_net.get(match.group(1).strip('"'), default)
+        block = ses[match.start():end]
+        if real is not None:
+            block = re.sub(r"(\((?:path|polyline_path|qarc)\s+\S+\s+)([\d.]+)",
+                           lambda m: m.group(1) + (_number(real) if float(m.group(2)) == planning
+                                                   else m.group(2)), block)
+        out += [ses[pos:match.start()], block]
+        pos = end
+    out.append(ses[pos:])
+    return "".join(out)
+
+
+def _number(value: float) -> str:
+    return str(int(value)) if float(value).is_integer() else f"{value:g}"
+
+
+# --- the routing boundary ---------------------------------------------------------------------
+# freeroute keeps only half a track from the boundary, so on small boards it runs tracks (and
+# drops vias) on the board edge. Shrinking the boundary by via radius + clearance keeps every
+# track and via its clearance from Edge.Cuts.
+
+_BOUNDARY_PATH = re.compile(r"(\(boundary\s*\(path\s+pcb\s+[\d.]+)((?:\s+-?[\d.]+)+)(\s*\))")
+
+
+def structure_clearance(dsn: str) -> float:
+    structure = re.search(r"\(structure\s", dsn)
+    if structure is None:
+        return 0.0
+    match = re.search(r"\(clearance\s+([\d.]+)\)", dsn[structure.start():_block(dsn, structure.start())])
+    return float(match.group(1)) if match else 0.0
+
+
+def shrink_boundary(dsn: str, margin: float) -> str:
+    """The DSN with its outer routing boundary inset by `margin` (DSN units); unchanged when
+    the boundary is not a polygon path or would vanish."""
+    from shapely.geometry import Polygon
+
+    match = _BOUNDARY_PATH.search(dsn)
+    if match is None or margin <= 0:
+        return dsn
+    values = [float(v) for v in match.group(2).split()]
+    ring = list(zip(values[0::2], values[1::2]))
+    inset = Polygon(ring).buffer(-margin, join_style="mitre")
+    if inset.is_empty or inset.geom_type != "Polygon":
+        return dsn
+    coords = list(inset.exterior.coords)
+    text = "  ".join(f"{_number(round(x, 1))} {_number(round(y, 1))}" for x, y in coords)
+    return dsn[:match.start()] + match.group(1) + "  " + text + match.group(3) + dsn[match.end():]
+
+
+def prepare_dsn_for_freeroute(dsn: str) -> tuple[str, dict]:
+    """Applies both freeroute work-arounds to a DSN; returns it with what the SES needs back."""
+    default, per_net = net_widths(dsn)
+    vias = via_diameters(dsn)
+    margin = (max(vias) / 2 if vias else (default or 0) / 2) + structure_clearance(dsn)
+    widened, planning = widen_wires_for_vias(shrink_boundary(dsn, margin))
+    return widened, {"planning": planning, "default": default, "per_net": per_net}
+
+
+def restore_ses_after_freeroute(ses: str, state: dict) -> str:
+    if state.get("planning") is None:
+        return ses
+    return restore_wire_widths(ses, state["planning"], state["default"], state["per_net"])

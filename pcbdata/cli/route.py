@@ -4,7 +4,7 @@ from __future__ import annotations
 import os
 
 VERB = "route"
-HELP = "route a board set through KiCad's Specctra DSN/SES round trip (default router: freeroute)"
+HELP = "route a board set with a baseline router (freeroute via Specctra DSN/SES, or kicad-tools)"
 
 
 def register(parser) -> None:
@@ -13,12 +13,15 @@ def register(parser) -> None:
     parser.add_argument("--split", default="test", help="split name (default: test)")
     parser.add_argument("--out", required=True, metavar="RUNS",
                         help="output folder: RUNS/<board_id>/<rollout>.kicad_pcb (+ .json)")
-    parser.add_argument("--router", default="freeroute", help="router (default: freeroute)")
+    parser.add_argument("--router", default="freeroute", choices=("freeroute", "kicad-tools"),
+                        help="freeroute (Specctra round trip, default) or kicad-tools (`kct "
+                             "route`, optional extra); both run as separate processes")
     parser.add_argument("--router-cmd", metavar="CMD",
                         help="any DSN->SES command, with {dsn} and {ses} placeholders, e.g. "
                              "'java -jar freerouting.jar -de {dsn} -do {ses}'")
     parser.add_argument("--rollouts", type=int, default=1,
-                        help="rollouts per board; freeroute cycles through engine variants")
+                        help="rollouts per board; freeroute cycles through engine variants, kicad-tools "
+                             "through seeds")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
                         help="parallel boards (default: CPU count)")
     parser.add_argument("--timeout", type=float, default=120.0,
@@ -28,7 +31,7 @@ def register(parser) -> None:
 
 
 def run(args) -> int:
-    from pcbdata.baselines.specctra import route_set
+    from pcbdata.baselines.routing import route_set
 
     counts = route_set(args.dir, args.config, args.split, args.out, router=args.router,
                        router_cmd=args.router_cmd, rollouts=args.rollouts, workers=args.workers,

@@ -56,11 +56,11 @@ def strip_ses_placement(ses: str) -> str:
 
 def route_board(board_path: str, instance_dir: str, out_path: str, command: list[str],
                 router_timeout: float, fix_resolution: bool = False,
-                flip_back: bool = False) -> dict:
+                flip_back: bool = False, plan_for_vias: bool = False) -> dict:
     """Exports the board as DSN, runs `command` on it, imports the SES and saves the routed
-    board to `out_path`. `fix_resolution` and `flip_back` work around two freeroute defects
-    (see `fix_ses_resolution` and `pcbdata.specctra_text`).
-    Returns {ok, reason, seconds, router_seconds, tracks, vias}."""
+    board to `out_path`. `fix_resolution`, `flip_back` and `plan_for_vias` work around
+    freeroute defects (see `fix_ses_resolution` and `pcbdata.specctra_text`).
+    Returns {ok, reason, seconds, router_seconds, router_cpu_seconds, tracks, vias}."""
     pcbnew = _pcbnew()
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="pcbdata-route-") as tmp:
@@ -70,6 +70,14 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         if not pcbnew.ExportSpecctraDSN(board, dsn):
             return {"ok": False, "reason": "KiCad could not export the DSN file"}
         back_refs: set[str] = set()
+        planning: dict = {}
+        if plan_for_vias:
+            from pcbdata.specctra_text import prepare_dsn_for_freeroute
+
+            with open(dsn, encoding="utf-8") as handle:
+                text, planning = prepare_dsn_for_freeroute(handle.read())
+            with open(dsn, "w", encoding="utf-8") as handle:
+                handle.write(text)
         if flip_back:
             from pcbdata.specctra_text import flip_back_components
 
@@ -78,7 +86,7 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
             with open(dsn, "w", encoding="utf-8") as handle:
                 handle.write(text)
         argv = [a.replace("{dsn}", dsn).replace("{ses}", ses) for a in command]
-        router_start = time.perf_counter()
+        router_start, cpu_start = time.perf_counter(), _children_cpu()
         try:
             result = subprocess.run(argv, capture_output=True, timeout=router_timeout, cwd=tmp,
                                     preexec_fn=_die_with_parent)
@@ -88,6 +96,7 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         except OSError as exc:
             return {"ok": False, "reason": f"router could not start: {exc}"}
         router_seconds = time.perf_counter() - router_start
+        router_cpu = _children_cpu() - cpu_start
         if result.returncode != 0 or not os.path.isfile(ses) or os.path.getsize(ses) == 0:
             tail = result.stderr.decode(errors="replace").strip().splitlines()[-1:] or [""]
             return {"ok": False, "reason": f"router failed (exit {result.returncode}) {tail[0]}".strip(),
@@ -108,6 +117,10 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
                 handle.write(text)
         with open(ses, encoding="utf-8", errors="replace") as handle:
             text = strip_ses_placement(handle.read())
+        if planning:
+            from pcbdata.specctra_text import restore_ses_after_freeroute
+
+            text = restore_ses_after_freeroute(text, planning)
         with open(ses, "w", encoding="utf-8") as handle:
             handle.write(text)
         if not pcbnew.ImportSpecctraSES(board, ses):
@@ -123,7 +136,14 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         os.makedirs(os.path.dirname(os.path.abspath(out_path)), exist_ok=True)
         os.replace(saved, out_path) if _same_fs(saved, out_path) else _copy(saved, out_path)
         return {"ok": True, "reason": "", "seconds": time.perf_counter() - start,
-                "router_seconds": router_seconds, "tracks": tracks, "vias": vias}
+                "router_seconds": router_seconds, "router_cpu_seconds": router_cpu,
+                "tracks": tracks, "vias": vias}
+
+
+def _children_cpu() -> float:
+    """CPU seconds used so far by this worker's finished child processes (the router)."""
+    times = os.times()
+    return times.children_user + times.children_system
 
 
 def _die_with_parent() -> None:
