@@ -55,22 +55,12 @@ def state_key(board: corpus.SourceBoard, recipe: Recipe, kicad_version: str) -> 
 
 def drc_counts(report: DrcReport) -> tuple[dict[str, int], int]:
     """Error-severity violations per type and unconnected items (excluded markers left out)."""
-    types: dict[str, int] = {}
-    unconnected = 0
-    for v in report.violations:
-        if v.severity == "excluded":
-            continue
-        if v.section == "unconnected":
-            unconnected += 1
-        elif v.severity == "error":
-            types[v.type] = types.get(v.type, 0) + 1
-    return types, unconnected
+    return report.error_counts()
 
 
 def is_kept(report: DrcReport, keep: dict) -> bool:
     """The revalidation rule of the recipe's `[keep]` table."""
-    types, unconnected = drc_counts(report)
-    return sum(types.values()) <= int(keep["max_errors"]) and unconnected <= int(keep["max_unconnected"])
+    return report.within(int(keep["max_errors"]), int(keep["max_unconnected"]))
 
 
 def judge(result: dict, keep: dict) -> dict:
@@ -161,7 +151,7 @@ def _engine_kicad_version(pool) -> str:
     saved = pool.task_timeout
     pool.task_timeout = max(float(saved), 120.0)
     try:
-        return str(pool.call("pcbdata.kicad.upgrade:kicad_version"))
+        return str(pool.call("pcbdata.kicad.basics:kicad_version"))
     except KicadError as exc:
         raise UserError(f"cannot start KiCad (pcbnew) in a worker: {exc}") from None
     finally:

@@ -1,15 +1,13 @@
 """Pictures for the dataset card: pad-count histograms (plain SVG written here) and board
-previews (rendered from the boards with `kicad-cli pcb export svg`)."""
+previews (`kicad-cli pcb export svg`, run in KiCad workers by `pcbdata.kicad.previews`)."""
 from __future__ import annotations
 
 import math
 import re
-import shutil
-import subprocess
-import tempfile
 from html import escape
 from pathlib import Path
 
+from pcbdata.kicad import KicadPool
 from pcbdata.publish.layout import write_file
 
 # Colours of the D3 tiers, and of everything else.
@@ -116,35 +114,42 @@ def histogram_svg(series: dict[str, list[int]], title: str, boundaries: list[tup
     return "\n".join(out) + "\n"
 
 
-def render_preview(board_path: Path, out_path: Path, timeout: float = 120) -> str | None:
-    """Renders a board's copper and outline as SVG with kicad-cli; returns None or the reason
-    it could not (no kicad-cli, KiCad failed): previews are illustrations, never required."""
-    cli = shutil.which("kicad-cli")
-    if cli is None:
-        return "kicad-cli not found on PATH"
-    with tempfile.TemporaryDirectory(prefix="pcbdata-preview-") as tmp:
-        # A copy, so that KiCad never touches the published tree.
-        board = Path(tmp) / "board.kicad_pcb"
-        shutil.copyfile(board_path, board)
-        project = board_path.with_suffix(".kicad_pro")
-        if project.is_file():
-            shutil.copyfile(project, board.with_suffix(".kicad_pro"))
-        svg = Path(tmp) / "preview.svg"
-        try:
-            subprocess.run([cli, "pcb", "export", "svg", "--layers", "F.Cu,B.Cu,Edge.Cuts",
-                            "--mode-single", "--exclude-drawing-sheet", "--page-size-mode", "2",
-                            "--output", str(svg), str(board)],
-                           check=True, capture_output=True, timeout=timeout)
-        except (subprocess.CalledProcessError, subprocess.TimeoutExpired, OSError) as exc:
-            return f"kicad-cli failed: {exc}"
-        if not svg.is_file():
-            return "kicad-cli wrote no SVG"
-        text = svg.read_text(encoding="utf-8")
-    # KiCad stamps the export time into the title; drop it so that re-publishing is byte-stable.
-    text = re.sub(r"<title>.*?</title>", f"<title>{escape(board_path.parent.name)}</title>", text,
-                  count=1, flags=re.S)
-    write_file(out_path, text)
-    return None
+class PreviewRenderer:
+    """Renders board previews in KiCad worker processes, one pool per publication; workers
+    start only when there is a preview to render. Previews are illustrations, never required:
+    a board that cannot be rendered gives a reason, not an error."""
+
+    RENDER = "pcbdata.kicad.previews:render_svg"
+
+    def __init__(self, workers: int = 2, timeout: float = 120.0):
+        self.timeout = timeout
+        self._pool = KicadPool(workers=workers, task_timeout=timeout + 60)
+
+    def __enter__(self) -> PreviewRenderer:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self._pool.close()
+
+    def render(self, jobs: list[tuple[Path, Path]]) -> list[str | None]:
+        """Renders each (board file, output SVG) pair; returns, per pair, None or the reason
+        it could not. A board is rendered with the project of its own stem, if any."""
+        args = []
+        for board, _ in jobs:
+            project = board.with_suffix(".kicad_pro")
+            args.append((str(board), str(project) if project.is_file() else None, self.timeout))
+        problems: list[str | None] = [None] * len(jobs)
+        for outcome in self._pool.map(self.RENDER, args):
+            board, out_path = jobs[outcome.index]
+            value = outcome.value if outcome.ok else {"reason": outcome.error}
+            if "svg" not in value:
+                problems[outcome.index] = value["reason"]
+                continue
+            # KiCad stamps the export time into the title; drop it so re-publishing is stable.
+            text = re.sub(r"<title>.*?</title>", f"<title>{escape(board.parent.name)}</title>",
+                          value["svg"], count=1, flags=re.S)
+            write_file(out_path, text)
+        return problems
 
 
 def pick_previews(boards: list[tuple[str, int]], count: int) -> list[str]:

@@ -27,6 +27,7 @@ from pcbdata.publish.card import attribution_markdown, card_text
 from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, INTERRUPTED_KEY, LOCK_NAME,
                                     PICTURES_DIR, PUBLISH_FORMAT, SHARD_RE, STAGE_NAME, STATE_NAME,
                                     config_key, shard_name, split_key, suggest, write_file)
+from pcbdata.tree import BOARD_FILE, REFERENCE_FILE, arrays_path, board_dir
 from pcbdata.publish.rows import (KNOWN_FACTS, board_fact, is_redistributable, iter_rows, schema_for,
                                   table_from_rows)
 
@@ -137,34 +138,50 @@ def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str, ha
             "parquet_bytes": sum(s["bytes"] for s in shards.values())}
 
 
-def _stage_pictures(root: Path, stage: Path, config: str, cfg: dict, previews: int) -> tuple[list[str], list[str]]:
+def _stage_pictures(root: Path, stage: Path, config: str, cfg: dict, previews: int,
+                    renderer: pictures.PreviewRenderer) -> tuple[list[str], list[str]]:
+    made = _stage_histogram(stage, config, cfg)
+    jobs, rels = [], []
+    for board_id, source in _preview_sources(root, config, cfg, previews):
+        rels.append(f"{PICTURES_DIR}/{config}/{board_id}.svg")
+        jobs.append((source, stage / rels[-1]))
+    notes = []
+    for rel, problem in zip(rels, renderer.render(jobs), strict=True):
+        if problem:
+            notes.append(f"{config}/{Path(rel).stem}: no preview ({problem})")
+        else:
+            made.append(rel)
+    return made, notes
+
+
+def _stage_histogram(stage: Path, config: str, cfg: dict) -> list[str]:
     splits = cfg.get("splits", {})
     hist_splits = ["full"] if "full" in splits else list(splits)
     pads = [board_fact(b, "n_pads") for s in hist_splits for b in splits[s].get("boards", {}).values()
             if board_fact(b, "n_pads") is not None]
-    rel_dir = f"{PICTURES_DIR}/{config}"
-    made, notes = [], []
-    if pads:
-        title = f"{config}: pad count per board ({', '.join(hist_splits)}, {len(pads)} boards)"
-        write_file(stage / rel_dir / "pads.svg", pictures.histogram_svg({config: pads}, title))
-        made.append(f"{rel_dir}/pads.svg")
+    if not pads:
+        return []
+    rel = f"{PICTURES_DIR}/{config}/pads.svg"
+    title = f"{config}: pad count per board ({', '.join(hist_splits)}, {len(pads)} boards)"
+    write_file(stage / rel, pictures.histogram_svg({config: pads}, title))
+    return [rel]
+
+
+def _preview_sources(root: Path, config: str, cfg: dict, previews: int) -> list[tuple[str, Path]]:
+    """(board id, file to render) of the boards previewed on the card: the reference routing
+    when there is one, else the task."""
+    splits = cfg.get("splits", {})
     preview_split = "test" if "test" in splits else (sorted(splits, key=split_key) or [None])[0]
     if preview_split is None or previews <= 0:
-        return made, notes
+        return []
     boards = [(bid, board_fact(b, "n_pads") or 0) for bid, b in splits[preview_split].get("boards", {}).items()
               if is_redistributable(b)]
+    out = []
     for board_id in pictures.pick_previews(boards, previews):
-        folder = root / config / preview_split / board_id
-        source = folder / "reference.kicad_pcb"
-        if not source.is_file():
-            source = folder / "board.kicad_pcb"
-        rel = f"{rel_dir}/{board_id}.svg"
-        problem = pictures.render_preview(source, stage / rel)
-        if problem:
-            notes.append(f"{config}/{board_id}: no preview ({problem})")
-        else:
-            made.append(rel)
-    return made, notes
+        folder = board_dir(root, config, preview_split, board_id)
+        source = folder / REFERENCE_FILE
+        out.append((board_id, source if source.is_file() else folder / BOARD_FILE))
+    return out
 
 
 def _d3_tier_histogram(manifest: dict, stage: Path) -> list[str]:
@@ -217,23 +234,30 @@ def publish_set(root: str | Path, configs: list[str] | None = None, *, previews:
             todo = [c for c in sorted(known, key=config_key)
                     if force or c in (configs or []) or not _up_to_date(root, manifest, c, state)]
             staged = {}
-            for config in todo:
-                cfg = manifest["configs"][config]
-                has_cells = cfg.get("family") == "d1" and any(
-                    (root / config / f"{s}.npz").is_file() for s in cfg.get("splits", {}))
-                splits = {}
-                for split in sorted(cfg.get("splits", {}), key=split_key):
-                    say(f"publishing {config}/{split}")
-                    splits[split] = _write_split(root, stage, config, cfg, split, has_cells)
-                made, notes = _stage_pictures(root, stage, config, cfg, previews)
-                for note in notes:
-                    say(note)
-                staged[config] = {"fingerprint": fingerprint(manifest, config), "splits": splits,
-                                  "pictures": made}
+            with pictures.PreviewRenderer() as renderer:
+                for config in todo:
+                    staged[config] = _stage_config(root, stage, manifest, config, previews,
+                                                   renderer, say)
             extra = _d3_tier_histogram(manifest, stage)
             _commit(root, stage, manifest, state, staged, extra)
         finally:
             shutil.rmtree(stage, ignore_errors=True)
+
+
+def _stage_config(root: Path, stage: Path, manifest: dict, config: str, previews: int,
+                  renderer: pictures.PreviewRenderer, say) -> dict:
+    """Writes one config's shards and pictures into the staging folder; returns its state."""
+    cfg = manifest["configs"][config]
+    has_cells = cfg.get("family") == "d1" and any(
+        arrays_path(root, config, s).is_file() for s in cfg.get("splits", {}))
+    splits = {}
+    for split in sorted(cfg.get("splits", {}), key=split_key):
+        say(f"publishing {config}/{split}")
+        splits[split] = _write_split(root, stage, config, cfg, split, has_cells)
+    made, notes = _stage_pictures(root, stage, config, cfg, previews, renderer)
+    for note in notes:
+        say(note)
+    return {"fingerprint": fingerprint(manifest, config), "splits": splits, "pictures": made}
 
 
 def _remove_published(root: Path, config: str) -> None:

@@ -5,7 +5,7 @@ import json
 
 import pytest
 
-from pcbdata.curation.projectfile import default_clearance, dumps_project, patch_project
+from pcbdata.kicad.projectfile import default_clearance, dumps_project, patch_project
 from pcbdata.curation.recipe import load_recipe
 
 SPEC_IGNORED = {"solder_mask_bridge", "drill_out_of_range", "malformed_courtyard",
@@ -82,7 +82,7 @@ def test_stored_clearance_wins_over_observed_spacing():
 
 
 def test_revalidation_skips_only_warning_checks():
-    from pcbdata.kicad.upgrade import check_project
+    from pcbdata.kicad.projectfile import check_project
 
     p = project(0.2, severities={"silk_overlap": "warning", "starved_thermal": "error",
                                  "clearance": "error"})
