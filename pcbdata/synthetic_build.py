@@ -21,7 +21,7 @@ from pcbdata import __version__
 from pcbdata.connector import connector_arrays, npz_bytes
 from pcbdata.kicad import KicadPool
 from pcbdata.kicad.drc_report import DrcReport
-from pcbdata.errors import UserError, ValidationError
+from pcbdata.errors import EngineError, UserError, ValidationError
 from pcbdata.fsutil import remove_stale_temps, sha256_bytes, write_atomic, write_dir_atomic
 from pcbdata.kicad_writer import BOARD_FILE, PROJECT_FILE, RULES_FILE, board_files
 from pcbdata.manifest import FORMAT, MANIFEST_NAME, merge_configs, write_manifest
@@ -61,6 +61,7 @@ class BuildSummary:
     checked: int = 0
     check_skipped: int = 0
     failures: list[str] = field(default_factory=list)
+    engine_failures: list[tuple[str, str]] = field(default_factory=list)  # (board, reason)
     seconds: float = 0.0
 
     def line(self) -> str:
@@ -209,6 +210,10 @@ def build_synthetic(root: str | Path, jobs: list[SplitJob], configs: dict[str, C
                 write_atomic(root / job.config / f"{job.split}.npz", npz_bytes(arrays))
     _check_in_kicad(root, jobs, entries, workers, summary, task_timeout)
     summary.seconds = time.perf_counter() - started
+    if summary.engine_failures:
+        board, reason = summary.engine_failures[0]
+        more = len(summary.engine_failures) - 1
+        raise EngineError(reason + (f" (and {more} more boards)" if more else ""), board=board)
     if summary.failures:
         raise ValidationError(
             f"{len(summary.failures)} board(s) failed the KiCad check; the set is left "
@@ -272,10 +277,10 @@ def _check_in_kicad(root: Path, jobs: list[SplitJob], entries, workers: int,
             for outcome in pool.map("pcbdata.kicad.basics:drc", args):
                 rel, sha, expected, job = todo[outcome.index]
                 progress.advance()
-                if outcome.ok:
-                    problem = check_problem(DrcReport.from_dict(outcome.value), expected)
-                else:
-                    problem = f"KiCad could not check it: {outcome.error}"
+                if not outcome.ok:
+                    summary.engine_failures.append((rel, outcome.error))
+                    continue
+                problem = check_problem(DrcReport.from_dict(outcome.value), expected)
                 if problem:
                     params = json.dumps(job.generator.params.as_dict(), sort_keys=True)
                     summary.failures.append(f"{rel}: {problem} (parameters {params})")
@@ -294,9 +299,20 @@ def _drc_args(root: Path, rel: str) -> tuple:
     return (str(path), str(project), str(rules) if rules.exists() else None)
 
 
-def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo], entries) -> None:
-    from pcbdata.kicad import kicad_version
+def _kicad_version(required: bool) -> str:
+    """KiCad's version for the manifest. A build that checked nothing (`--no-check`) needs no
+    KiCad: without one it records "unknown" instead of failing."""
+    from pcbdata.kicad import KicadError, kicad_version
 
+    try:
+        return kicad_version()
+    except KicadError as exc:
+        if required:
+            raise EngineError(f"cannot ask KiCad its version: {exc}") from None
+        return "unknown"
+
+
+def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo], entries) -> None:
     built: dict[str, dict] = {}
     for job in jobs:
         info = configs[job.config]
@@ -314,6 +330,8 @@ def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigI
             split["arrays"] = {npz.name: sha256_bytes(npz.read_bytes())}
         config["splits"][job.split] = split
     _keep_other_splits(root, built)
-    base = {"format": FORMAT, "package_version": __version__, "kicad_version": kicad_version()}
+    checked = any(job.check_indices for job in jobs)
+    base = {"format": FORMAT, "package_version": __version__,
+            "kicad_version": _kicad_version(required=checked)}
     manifest = merge_configs(root, base, built)
     write_manifest(root, manifest)

@@ -53,16 +53,11 @@ def checked_indices(args, split: str, count: int) -> list[int]:
 def run_build(args, jobs, configs) -> int:
     import sys
 
-    from pcbdata.errors import ValidationError
     from pcbdata.synthetic_build import build_synthetic
 
     names = ", ".join(sorted(configs))
     print(f"pcbdata build: {names} -> {args.out} ({args.workers} workers)", file=sys.stderr)
-    try:
-        summary = build_synthetic(args.out, jobs, configs, workers=args.workers)
-    except ValidationError as exc:
-        print(f"pcbdata: build failed: {exc}", file=sys.stderr)
-        return 1
+    summary = build_synthetic(args.out, jobs, configs, workers=args.workers)
     from pcbdata.publish import publish_set
 
     publish_set(args.out, list(configs))

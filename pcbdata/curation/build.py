@@ -30,6 +30,7 @@ from pcbdata.curation import corpus
 from pcbdata.curation.picks import COLUMNS, CONFIGS, Row, assign_tiers, evaluation_subsets, \
     number_rows
 from pcbdata.curation.recipe import Recipe
+from pcbdata.errors import EngineError
 from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.fsutil import remove_stale_temps, sha256_bytes, write_atomic, write_dir_atomic
 from pcbdata.manifest import FORMAT, manifest_path, merge_configs, read_manifest, \
@@ -146,14 +147,13 @@ def _engine_kicad_version(pool) -> str:
     """KiCad's version from a worker (it starts one), under a limit of at least 2 minutes
     whatever the per-board limit."""
     from pcbdata.kicad.pool import KicadError
-    from pcbdata.errors import UserError
 
     saved = pool.task_timeout
     pool.task_timeout = max(float(saved), 120.0)
     try:
         return str(pool.call("pcbdata.kicad.basics:kicad_version"))
     except KicadError as exc:
-        raise UserError(f"cannot start KiCad (pcbnew) in a worker: {exc}") from None
+        raise EngineError(f"cannot start KiCad (pcbnew) in a worker: {exc}") from None
     finally:
         pool.task_timeout = saved
 
