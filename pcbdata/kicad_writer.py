@@ -6,16 +6,14 @@ UUIDs are derived from the board's `uuid_seed`, so the same board gives the same
 from __future__ import annotations
 
 import hashlib
-import json
 import uuid
 
 from pcbdata.board import Board, Pad, Rules
+from pcbdata.textio import canonical_json
+from pcbdata.tree import BOARD_FILE, PROJECT_FILE, RULES_FILE
 
 KICAD_PCB_VERSION = 20241229  # the file format KiCad 9.0 writes
 GENERATOR = "pcbdata"
-BOARD_FILE = "board.kicad_pcb"
-PROJECT_FILE = "board.kicad_pro"
-RULES_FILE = "board.kicad_dru"
 
 # The layer table KiCad 9 writes for a two-layer board (ids changed in 9.0: B.Cu is 2).
 _LAYERS = """\t(layers
@@ -195,7 +193,7 @@ def project_text(rules: Rules, filename: str = PROJECT_FILE) -> str:
             "meta": {"version": 4},
         },
     }
-    return json.dumps(project, indent=2, sort_keys=True) + "\n"
+    return canonical_json(project, indent=2)
 
 
 def custom_rules_text(rules: Rules) -> str | None:

@@ -2,14 +2,12 @@
 from __future__ import annotations
 
 import difflib
-import hashlib
-import json
 import tomllib
 from dataclasses import dataclass
-from pcbdata.resources import resource_path
 
 from pcbdata.errors import UserError
 from pcbdata.generators.d2 import D2Params
+from pcbdata.resources import resource_path
 
 
 def _load(name: str) -> dict:
@@ -48,12 +46,11 @@ class D2Level:
 
     @property
     def config_name(self) -> str:
-        """`d2` for the benchmark level, `d2-<level>` otherwise; overrides add a short hash."""
-        base = "d2" if self.name == "default" else f"d2-{self.name}"
-        if not self.overrides:
-            return base
-        digest = hashlib.sha256(json.dumps(self.params.as_dict(), sort_keys=True).encode()).hexdigest()
-        return f"{base}-custom-{digest[:8]}"
+        """`d2` for the benchmark level, `d2-<level>` otherwise; overrides add a short hash
+        (`pcbdata.configs.d2_name`)."""
+        from pcbdata.configs import d2_name
+
+        return d2_name(self.name, self.params.as_dict() if self.overrides else None)
 
 
 def d2_levels() -> dict[str, dict]:

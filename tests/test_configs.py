@@ -32,3 +32,37 @@ def test_any_d1_grid_resolves_and_unknown_names_suggest():
         get_config("d2-hardd")
     with pytest.raises(UserError, match="curated"):
         get_config("d3-a").generator()
+
+
+def test_every_synthetic_config_makes_a_generator_of_the_protocol():
+    from pcbdata.generators import Generator, SplitArrays
+
+    for spec in registry().values():
+        if not spec.synthetic:
+            continue
+        generator = spec.generator()
+        assert isinstance(generator, Generator) and generator.family == spec.family
+        assert isinstance(generator, SplitArrays) == (spec.family == "d1")
+        assert set(spec.sizes) == set(spec.splits) and spec.seed is not None
+
+
+def test_a_level_with_overrides_is_a_custom_config_generated_from_its_parameters():
+    from pcbdata.configs import d2_config
+
+    spec = d2_config("hard", {"min_pad_spacing_mm": 3.6})
+    assert spec.name.startswith("d2-hard-custom-") and len(spec.name) == len("d2-hard-custom-") + 8
+    assert spec.parameters["min_pad_spacing_mm"] == 3.6
+    assert spec.manifest["overrides"] == {"min_pad_spacing_mm": 3.6}
+    assert spec.generator().params.min_pad_spacing_mm == 3.6
+    assert d2_config("hard", {"min_pad_spacing_mm": 3.6}).name == spec.name
+    assert d2_config("hard").name == "d2-hard"
+
+
+def test_names_are_ordered_by_family_then_grid():
+    from pcbdata.configs import family_of, order_key
+
+    names = ["d3-b", "d1-g500", "x", "d2-hard", "d1-g50-random-walk", "d1-g50", "d2", "d3-a"]
+    assert sorted(names, key=order_key) == ["d2", "d2-hard", "d1-g50", "d1-g50-random-walk",
+                                            "d1-g500", "d3-a", "d3-b", "x"]
+    assert [family_of(n) for n in ("d1-g7", "d2-hard-custom-0123abcd", "d3-c", "x")] == [
+        "d1", "d2", "d3", None]

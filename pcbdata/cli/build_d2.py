@@ -21,20 +21,10 @@ def register(parser) -> None:
 
 
 def run(args) -> int:
-    from pcbdata.generators import D2Generator
-    from pcbdata.presets import d2_level, parse_override
-    from pcbdata.synthetic_build import ConfigInfo, SplitJob
+    from pcbdata.builders import build_d2
+    from pcbdata.presets import parse_override
 
     overrides = dict(parse_override(text) for text in args.overrides)
-    level = d2_level(args.level, overrides)
-    sizes = common.split_sizes(args, level.splits)
-    seed = level.seed if args.seed is None else args.seed
-    generator = D2Generator(level.params)
-    config = level.config_name
-    configs = {config: ConfigInfo(
-        family="d2", set_version=level.version, seed=seed, parameters=level.params.as_dict(),
-        extra={"level": level.name, "level_description": level.description,
-               "overrides": level.overrides})}
-    jobs = [SplitJob(config, split, count, generator, common.checked_indices(args, split, count))
-            for split, count in sizes.items()]
-    return common.run_build(args, jobs, configs)
+    summary = build_d2(args.out, args.level, overrides, common.options(args))
+    print(f"done: {summary.line()}")
+    return 0

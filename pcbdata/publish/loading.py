@@ -9,15 +9,17 @@ import shutil
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Iterator
+from collections.abc import Iterable, Iterator
 
 import pyarrow.parquet as pq
 
 from pcbdata.errors import UserError
-from pcbdata.fsutil import sha256_bytes, sha256_file, write_dir_atomic
+from pcbdata.fsutil import write_dir_atomic
+from pcbdata.hashing import sha256_bytes, sha256_file
 from pcbdata.publish.card import read_card_configs
 from pcbdata.publish.layout import CARD_NAME, FILE_COLUMNS, STATE_NAME, split_key, suggest
 from pcbdata.publish.verify import recorded_shard_hashes as _recorded_hashes
+from pcbdata.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE, board_dir
 
 ROOT_ENV = "PCBDATA_ROOT"
 _HUB_ID = re.compile(r"^[A-Za-z0-9][\w.-]*/[\w.-]+$")
@@ -142,12 +144,12 @@ def materialize_row(row: dict, out_dir: str | Path, layout: str = "tree") -> Pat
     `out_dir/<config>/<split>/<board_id>/` (the built set's layout), `"flat"` `out_dir/<board_id>/`."""
     out_dir = Path(out_dir)
     if layout == "tree":
-        folder = out_dir / row["config"] / row["split"] / row["board_id"]
+        folder = board_dir(out_dir, row["config"], row["split"], row["board_id"])
     elif layout == "flat":
         folder = out_dir / row["board_id"]
     else:
         raise UserError(f"unknown layout {layout!r}; choose tree or flat")
-    write_dir_atomic(folder, row_files(row))
+    write_dir_atomic(folder, dict[str, bytes | str](row_files(row)))
     return folder
 
 
@@ -159,15 +161,15 @@ class BoardOnDisk:
 
     @property
     def board_path(self) -> Path:
-        return self.folder / "board.kicad_pcb"
+        return self.folder / BOARD_FILE
 
     @property
     def project_path(self) -> Path:
-        return self.folder / "board.kicad_pro"
+        return self.folder / PROJECT_FILE
 
     @property
     def reference_path(self) -> Path | None:
-        path = self.folder / "reference.kicad_pcb"
+        path = self.folder / REFERENCE_FILE
         return path if path.is_file() else None
 
 

@@ -4,14 +4,16 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from html import escape
 from pathlib import Path
 
+from pcbdata.configs import D3_TIERS
 from pcbdata.kicad import KicadPool
 from pcbdata.publish.layout import write_file
 
 # Colours of the D3 tiers, and of everything else.
-_TIER_COLOURS = {"d3-a": "#4c78a8", "d3-b": "#f58518", "d3-c": "#54a24b"}
+_TIER_COLOURS = {D3_TIERS["A"]: "#4c78a8", D3_TIERS["B"]: "#f58518", D3_TIERS["C"]: "#54a24b"}
 _BAR = "#4c78a8"
 
 
@@ -31,7 +33,8 @@ def _bins(values: list[int], log: bool) -> list[tuple[float, float]]:
     return list(zip(edges, edges[1:]))
 
 
-def histogram_svg(series: dict[str, list[int]], title: str, boundaries: list[tuple[float, str]] = (),
+def histogram_svg(series: dict[str, list[int]], title: str,
+                  boundaries: Sequence[tuple[float, str]] = (),
                   log: bool | None = None) -> str:
     """A stacked histogram of pad counts, one colour per series (e.g. per D3 tier).
 

@@ -10,7 +10,6 @@ since the last run is not rewritten; rewriting gives the same bytes.
 from __future__ import annotations
 
 import fcntl
-import hashlib
 import json
 import os
 import shutil
@@ -19,17 +18,21 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 
+from pcbdata.configs import D3_TIERS
+from pcbdata.curation.recipe import tier_rules
 from pcbdata.errors import UserError
-from pcbdata.fsutil import sha256_file
-from pcbdata.manifest import read_manifest
+from pcbdata.hashing import sha256_file, sha256_text
+from pcbdata.manifest import board_fact, read_manifest
 from pcbdata.publish import pictures
 from pcbdata.publish.card import attribution_markdown, card_text
 from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, INTERRUPTED_KEY, LOCK_NAME,
                                     PICTURES_DIR, PUBLISH_FORMAT, SHARD_RE, STAGE_NAME, STATE_NAME,
-                                    config_key, shard_name, split_key, suggest, write_file)
-from pcbdata.tree import BOARD_FILE, REFERENCE_FILE, arrays_path, board_dir
-from pcbdata.publish.rows import (KNOWN_FACTS, board_fact, is_redistributable, iter_rows, schema_for,
+                                    TEXT_COLUMNS, config_key, shard_name, split_key, suggest,
+                                    write_file)
+from pcbdata.publish.rows import (KNOWN_FACTS, is_redistributable, iter_rows, schema_for,
                                   table_from_rows)
+from pcbdata.textio import canonical_json
+from pcbdata.tree import BOARD_FILE, REFERENCE_FILE, arrays_path, board_dir
 
 SHARD_BYTES = 256 * 1024 * 1024  # uncompressed text per shard
 ROW_GROUP_BYTES = 32 * 1024 * 1024
@@ -45,7 +48,7 @@ STUB_CARD = (f"---\n{INTERRUPTED_KEY}: true\n---\n\n# Publishing of this board s
 def fingerprint(manifest: dict, config: str) -> str:
     data = {"format": PUBLISH_FORMAT, "config": manifest["configs"][config],
             "kicad_version": manifest.get("kicad_version")}
-    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+    return sha256_text(json.dumps(data, sort_keys=True))
 
 
 def read_state(root: Path) -> dict:
@@ -111,7 +114,7 @@ def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str, ha
         buffer, buffer_bytes = [], 0
 
     for row, raw in iter_rows(root, config, cfg, split, has_cells):
-        size = sum(len(row[c] or "") for c in ("board", "project", "custom_rules", "reference"))
+        size = sum(len(row[c] or "") for c in TEXT_COLUMNS)
         size += sum(len(f["text"] or "") for f in row["other_files"])
         if shard_bytes and shard_bytes + size > SHARD_BYTES:
             flush()
@@ -185,22 +188,27 @@ def _preview_sources(root: Path, config: str, cfg: dict, previews: int) -> list[
 
 
 def _d3_tier_histogram(manifest: dict, stage: Path) -> list[str]:
-    tiers = {}
-    for config in ("d3-a", "d3-b", "d3-c"):
+    """One histogram of the D3 tiers' pad counts, with the tier boundaries of the recipe the
+    set was built with."""
+    tiers, parameters = {}, None
+    for config in D3_TIERS.values():
         cfg = manifest["configs"].get(config)
         if not cfg:
             continue
+        parameters = parameters or cfg.get("parameters")
         split = "full" if "full" in cfg.get("splits", {}) else None
         boards = [b for s, e in cfg.get("splits", {}).items() if split in (None, s)
                   for b in e.get("boards", {}).values()]
         tiers[config] = [board_fact(b, "n_pads") for b in boards if board_fact(b, "n_pads") is not None]
     if not any(tiers.values()):
         return []
+    a, b, c = D3_TIERS["A"], D3_TIERS["B"], D3_TIERS["C"]
     boundaries = []
-    if tiers.get("d3-a") and (tiers.get("d3-b") or tiers.get("d3-c")):
-        boundaries.append((max(tiers["d3-a"]) + 0.5, "A | B"))
-    if tiers.get("d3-b") or tiers.get("d3-c"):
-        boundaries.append((100.5, "B | C (100 pads)"))
+    if tiers.get(a) and (tiers.get(b) or tiers.get(c)):
+        boundaries.append((max(tiers[a]) + 0.5, "A | B"))
+    if tiers.get(b) or tiers.get(c):
+        b_max_pads = tier_rules(parameters)[0].b_max_pads
+        boundaries.append((b_max_pads + 0.5, f"B | C ({b_max_pads} pads)"))
     total = sum(len(v) for v in tiers.values())
     svg = pictures.histogram_svg({k: v for k, v in tiers.items() if v},
                                  f"D3: pad count per board by tier ({total} boards)", boundaries)
@@ -289,7 +297,7 @@ def _commit(root: Path, stage: Path, manifest: dict, state: dict, staged: dict, 
         if old not in extra:
             (root / old).unlink(missing_ok=True)
     state["pictures"] = extra
-    write_file(root / STATE_NAME, json.dumps(state, indent=1, sort_keys=True) + "\n")
+    write_file(root / STATE_NAME, canonical_json(state))
     attribution = attribution_markdown(manifest)
     if attribution is None:
         (root / ATTRIBUTION_NAME).unlink(missing_ok=True)

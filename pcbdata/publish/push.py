@@ -18,11 +18,11 @@ from pcbdata.publish.card import read_card_configs
 from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, PICTURES_DIR, STATE_NAME,
                                     config_key)
 from pcbdata.publish.verify import verify_published
+from pcbdata.tree import D3_TABLES, arrays_name
 
 # Tables the D3 build writes next to the boards (attribution, characteristics, curation report,
 # the collection's licence notice): uploaded when present.
-EXTRA_TOP_FILES = ("attribution.csv", "attribution.json", "LICENSE-PCBench", "characteristics.csv",
-                   "curation_report.csv", "curation_report.json")
+EXTRA_TOP_FILES = D3_TABLES
 _REPO_RE = re.compile(r"^[A-Za-z0-9][\w.-]*/[\w.-]+$")
 
 
@@ -34,7 +34,7 @@ def files_to_push(root: Path) -> list[str]:
     for config in sorted(card, key=config_key):
         for split, shards in card[config].items():
             out += shards
-            npz = f"{config}/{split}.npz"
+            npz = f"{config}/{arrays_name(split)}"
             if (root / npz).is_file():
                 out.append(npz)
     pictures = root / PICTURES_DIR

@@ -1,12 +1,14 @@
 """Characteristics order, tiers and evaluation picks against hand-computed cases."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from pcbdata.curation.picks import Row, apply_replacements, array_split, assign_tiers, \
     evaluation_subsets, number_rows, picks
-from pcbdata.curation.recipe import load_recipe, parse_recipe
+from pcbdata.curation.recipe import Override, load_recipe, parse_recipe
 
 
 def rows(spec):
@@ -74,14 +76,18 @@ def test_fewer_boards_than_bins_takes_each_board():
 def test_replacement_override_applies_only_to_a_computed_pick_in_the_tier():
     tier = rows([("p", 1, 1, 1, 2), ("q", 1, 1, 1, 2), ("r", 2, 1, 1, 2)])
     chosen = [tier[0]]
-    o = {"kind": "replace_pick", "config": "d3-b", "board": "p", "replacement": "q",
-         "reason": "t"}
+    o = Override(kind="replace_pick", config="d3-b", board="p", replacement="q", reason="t")
     out, notes = apply_replacements(chosen, tier, "d3-b", [o])
     assert [r.name for r in out] == ["q"] and notes[0]["applied"]
-    out, notes = apply_replacements(chosen, tier, "d3-b", [{**o, "board": "r"}])
+    assert notes[0] == {"kind": "replace_pick", "config": "d3-b", "board": "p",
+                        "replacement": "q", "reason": "t", "applied": True, "why": ""}
+    out, notes = apply_replacements(chosen, tier, "d3-b", [replace(o, board="r")])
     assert [r.name for r in out] == ["p"] and not notes[0]["applied"]
-    out, notes = apply_replacements(chosen, tier, "d3-b", [{**o, "replacement": "nope"}])
-    assert not notes[0]["applied"]
+    assert notes[0]["why"] == "board is not a computed pick"
+    out, notes = apply_replacements(chosen, tier, "d3-b", [replace(o, replacement="nope")])
+    assert not notes[0]["applied"] and notes[0]["why"] == "replacement is not in the tier"
+    out, notes = apply_replacements([tier[0], tier[1]], tier, "d3-b", [o])
+    assert notes[0]["why"] == "replacement is already a pick"
     assert apply_replacements(chosen, tier, "d3-c", [o]) == (chosen, [])
 
 

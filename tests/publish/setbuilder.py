@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from pcbdata import kicad_writer, presets
-from pcbdata.fsutil import sha256_bytes, write_atomic
+from pcbdata.fsutil import write_atomic
+from pcbdata.hashing import sha256_bytes
 from pcbdata.generators.d1 import D1Generator, D1Params
 from pcbdata.generators.d2 import D2Generator
 from pcbdata.manifest import FORMAT, write_manifest

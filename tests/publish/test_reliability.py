@@ -11,7 +11,7 @@ import pytest
 import pcbdata
 from pcbdata.cli import main
 from pcbdata.errors import UserError
-from pcbdata.fsutil import sha256_file
+from pcbdata.hashing import sha256_file
 from pcbdata.manifest import read_manifest, write_manifest
 from pcbdata.publish import publish_set, publisher, verify_published
 from tests.publish.setbuilder import make_set
