@@ -11,15 +11,14 @@ the layout `pcbdata eval --runs` reads. Re-runs skip rollouts already routed.
 """
 from __future__ import annotations
 
+import json
 import shlex
 import sys
 from pathlib import Path
 
+from pcbdata.kicad.pool import KicadPool
 from pcbdata.errors import UserError
 from pcbdata.fsutil import write_atomic
-from pcbdata.kicad.pool import KicadPool
-from pcbdata.textio import canonical_json
-from pcbdata.tree import BOARD_FILE
 
 ROUTE = "pcbdata.kicad.specctra:route_board"
 #: freeroute options per rollout (cycled): rollout 0 is the package's most DRC-careful engine.
@@ -76,7 +75,7 @@ def route_set(root: str | Path, config: str, split: str, out: str | Path, router
             if sidecar.is_file():
                 skipped += 1
                 continue
-            jobs.append((str(directory / BOARD_FILE), str(directory), str(target), argv,
+            jobs.append((str(directory / "board.kicad_pcb"), str(directory), str(target), argv,
                          router_timeout, fix, fix))
             meta.append((board_id, r, label, sidecar))
     counts = {"routed": 0, "failed": 0, "skipped": skipped}
@@ -93,7 +92,7 @@ def route_set(root: str | Path, config: str, split: str, out: str | Path, router
                       "time_s": value.get("seconds", outcome.seconds),
                       "router_s": value.get("router_seconds")}
             counts["routed" if value.get("ok") else "failed"] += 1
-            write_atomic(sidecar, canonical_json(record))
+            write_atomic(sidecar, json.dumps(record, indent=1, sort_keys=True) + "\n")
             if progress and (n % 25 == 0 or n == len(jobs)):
                 print(f"  routed {n}/{len(jobs)}", file=sys.stderr)
     return counts

@@ -36,8 +36,15 @@ def test_tiers_first_rows_then_pad_threshold():
     assert [r.name for r in tiers["A"]] == ["x1", "x2", "x3"]
     assert [r.name for r in tiers["B"]] == ["x4", "x5"]
     assert [r.name for r in tiers["C"]] == ["x6", "x7", "x8"]
-    # a small pad count after the first rows still goes by the threshold (here none)
-    assert all(r.tier == "C" for r in tiers["C"])
+    assert [r.tier for r in table] == ["A"] * 3 + ["B"] * 2 + ["C"] * 3
+
+
+def test_tier_a_takes_the_first_rows_whatever_their_pads():
+    table = number_rows(rows([(f"x{i}", i, 1, 1, 2) for i in range(1, 9)]))
+    tiers = assign_tiers(table, a_size=6, b_max_pads=2)  # A reaches past the B/C threshold
+    assert [r.name for r in tiers["A"]] == ["x1", "x2", "x3", "x4", "x5", "x6"]
+    assert tiers["B"] == [] and [r.name for r in tiers["C"]] == ["x7", "x8"]
+    assert [r.tier for r in table] == ["A"] * 6 + ["C"] * 2
 
 
 def test_picks_bins_and_lower_median():

@@ -122,7 +122,8 @@ def test_levels_get_harder_by_rank_in_nets_pads_size_and_spacing():
         assert h.width_mm[1] < e.width_mm[1] and h.height_mm[1] < e.height_mm[1]
         assert h.min_pad_spacing_mm < e.min_pad_spacing_mm
         assert h.pads_per_net != e.pads_per_net
-        assert harder.description and harder.version == easier.version
+        assert harder.rank == easier.rank + 1
+        assert harder.description and harder.description != easier.description
 
 
 def test_unknown_level_suggests_the_closest():
