@@ -18,7 +18,13 @@ from pathlib import Path
 
 from pcbdata.configs import SYNTHETIC_SPLITS, ConfigSpec, d1_config, d2_config
 from pcbdata.errors import UserError
-from pcbdata.synthetic_build import BuildSummary, ConfigInfo, SplitJob, build_synthetic, check_sample
+from pcbdata.synthetic_build import (
+    BuildSummary,
+    ConfigInfo,
+    SplitJob,
+    build_synthetic,
+    check_sample,
+)
 
 Log = Callable[[str], None]
 

@@ -30,7 +30,6 @@ from pcbdata.hashing import sha256_text
 if TYPE_CHECKING:
     from pcbdata.generators.base import Generator
 
-FAMILIES = ("d1", "d2", "d3")
 SYNTHETIC_SPLITS = ("train", "validation", "test")
 D3_SPLITS = ("test", "full")
 D3_TIERS = {"A": "d3-a", "B": "d3-b", "C": "d3-c"}

@@ -86,7 +86,8 @@ def _pad_sexpr(pad: Pad, net_no: int, uid: str) -> list[str]:
     else:
         head = '(pad "1" smd rect'
         body = [at, size, f'(layers "{side}.Cu" "{side}.Mask" "{side}.Paste")']
-    return [f"\t\t{head}"] + [f"\t\t\t{b}" for b in body + [net, f"(uuid {_quote(uid)})"]] + ["\t\t)"]
+    lines = [f"\t\t\t{b}" for b in body + [net, f"(uuid {_quote(uid)})"]]
+    return [f"\t\t{head}", *lines, "\t\t)"]
 
 
 def _footprint(pad: Pad, ref: str, net_no: int, uuids: _Uuids) -> str:
@@ -143,7 +144,8 @@ def board_text(board: Board) -> str:
     for t in board.tracks:
         out.append(
             f"\t(segment\n\t\t(start {mm(t.x1)} {mm(t.y1)})\n\t\t(end {mm(t.x2)} {mm(t.y2)})\n"
-            f"\t\t(width {mm(t.width)})\n\t\t(layer {_quote(t.layer)})\n\t\t(net {numbers[t.net]})\n"
+            f"\t\t(width {mm(t.width)})\n\t\t(layer {_quote(t.layer)})\n"
+            f"\t\t(net {numbers[t.net]})\n"
             f"\t\t(uuid {_quote(uuids.next())})\n\t)\n"
         )
     for a in board.arcs:

@@ -28,7 +28,8 @@ class D1Preset:
 
 def d1_preset() -> D1Preset:
     data = _load("d1.toml")
-    return D1Preset(version=data["version"], seed=data["seed"], grid_sizes=tuple(data["grid_sizes"]),
+    return D1Preset(version=data["version"], seed=data["seed"],
+                    grid_sizes=tuple(data["grid_sizes"]),
                     n_nets=data["n_nets"], placement=data["placement"],
                     connector_version=data["connector_version"], splits=dict(data["splits"]))
 
@@ -63,7 +64,8 @@ def d2_level(name: str, overrides: dict | None = None) -> D2Level:
     if name not in levels:
         close = difflib.get_close_matches(name, list(levels), n=1, cutoff=0.3)
         hint = f"; did you mean {close[0]!r}?" if close else ""
-        raise UserError(f"unknown D2 level {name!r}{hint} (levels: {', '.join(sorted(levels, key=lambda n: levels[n]['rank']))})")
+        ranked = sorted(levels, key=lambda n: levels[n]["rank"])
+        raise UserError(f"unknown D2 level {name!r}{hint} (levels: {', '.join(ranked)})")
     spec = {k: v for k, v in levels[name].items() if k not in ("rank", "description")}
     where = f"pcbdata/resources/presets/d2_levels.toml level {name!r}"
     D2Params.from_dict(spec, where)  # the preset alone must be valid

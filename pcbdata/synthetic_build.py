@@ -27,9 +27,20 @@ from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.kicad_writer import board_files
 from pcbdata.manifest import FORMAT, merge_configs, write_manifest
 from pcbdata.rng import SEED_SCHEME
-from pcbdata.tree import (BOARD_FILE, MANIFEST_NAME, PROJECT_FILE, REFERENCE_FILE, RULES_FILE,
-                          SYNTHETIC_STATE_DIR, arrays_name, arrays_path, board_relpath,
-                          check_log_path, folder_holds, split_dir)
+from pcbdata.tree import (
+    BOARD_FILE,
+    MANIFEST_NAME,
+    PROJECT_FILE,
+    REFERENCE_FILE,
+    RULES_FILE,
+    SYNTHETIC_STATE_DIR,
+    arrays_name,
+    arrays_path,
+    board_relpath,
+    check_log_path,
+    folder_holds,
+    split_dir,
+)
 
 STATE_DIR = SYNTHETIC_STATE_DIR
 _CHUNK = 128
@@ -187,7 +198,8 @@ def build_synthetic(root: str | Path, jobs: list[SplitJob], configs: dict[str, C
         for job in jobs:
             seed = configs[job.config].seed
             progress = _Progress(f"{job.config}/{job.split} write", job.count)
-            chunks = [list(range(i, min(i + _CHUNK, job.count))) for i in range(0, job.count, _CHUNK)]
+            chunks = [list(range(i, min(i + _CHUNK, job.count)))
+                      for i in range(0, job.count, _CHUNK)]
             results: list[dict] = []
             for chunk in executor.map(_generate_chunk, [str(root)] * len(chunks),
                                       [job] * len(chunks), [seed] * len(chunks), chunks):
@@ -307,7 +319,8 @@ def _kicad_version(required: bool) -> str:
         return "unknown"
 
 
-def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo], entries) -> None:
+def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
+                    entries) -> None:
     built: dict[str, dict] = {}
     for job in jobs:
         info = configs[job.config]

@@ -26,8 +26,6 @@ BOARD_FILE = "board.kicad_pcb"
 PROJECT_FILE = "board.kicad_pro"
 RULES_FILE = "board.kicad_dru"
 REFERENCE_FILE = "reference.kicad_pcb"
-#: Files a board folder may hold, in publication order.
-BOARD_FOLDER_FILES = (BOARD_FILE, PROJECT_FILE, RULES_FILE, REFERENCE_FILE)
 
 SYNTHETIC_STATE_DIR = ".pcbdata"
 CHECK_LOG = "checks.jsonl"

@@ -21,7 +21,8 @@ def test_d2_levels_share_one_stream_per_board_index():
     a, b = default.generate(0, "test", 3).board, hard.generate(0, "test", 3).board
     lo_a, hi_a = default.params.width_mm
     lo_b, hi_b = hard.params.width_mm
-    assert (a.width / 1e6 - lo_a) / (hi_a - lo_a) == pytest.approx((b.width / 1e6 - lo_b) / (hi_b - lo_b), abs=1e-4)
+    fraction_b = (b.width / 1e6 - lo_b) / (hi_b - lo_b)
+    assert (a.width / 1e6 - lo_a) / (hi_a - lo_a) == pytest.approx(fraction_b, abs=1e-4)
     assert "shared by every level" in get_config("d2-hard").seed_coupling
 
 

@@ -16,9 +16,9 @@ import shlex
 import sys
 from pathlib import Path
 
-from pcbdata.kicad.pool import KicadPool
 from pcbdata.errors import UserError
 from pcbdata.fsutil import write_atomic
+from pcbdata.kicad.pool import KicadPool
 
 ROUTE = "pcbdata.kicad.specctra:route_board"
 #: freeroute options per rollout (cycled): rollout 0 is the package's most DRC-careful engine.
@@ -39,7 +39,8 @@ def freeroute_available() -> bool:
     return importlib.util.find_spec("freeroute") is not None
 
 
-def router_command(router: str, router_cmd: str | None, rollout: int) -> tuple[list[str], bool, str]:
+def router_command(router: str, router_cmd: str | None,
+                   rollout: int) -> tuple[list[str], bool, str]:
     """(argv with {dsn}/{ses} placeholders, whether to apply the freeroute work-arounds, label)."""
     if router_cmd:
         argv = shlex.split(router_cmd)

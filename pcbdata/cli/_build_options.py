@@ -12,7 +12,8 @@ def add_common(parser) -> None:
     parser.add_argument("--splits", default="train,validation,test", metavar="LIST",
                         help="comma-separated splits among train, validation, test (default: all)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, metavar="N",
-                        help="worker processes for generation and KiCad checks (default: all cores)")
+                        help="worker processes for generation and KiCad checks "
+                             "(default: all cores)")
     parser.add_argument("--seed", type=int, default=None,
                         help="base seed (default: the preset's seed)")
     parser.add_argument("--count", type=int, default=None, metavar="N",

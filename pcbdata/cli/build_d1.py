@@ -27,7 +27,8 @@ def parse_grids(text: str, preset_grids) -> list[int]:
         try:
             grids.append(int(part))
         except ValueError:
-            raise UserError(f"--grid {text!r}: {part.strip()!r} is not an integer grid size or 'all'") from None
+            raise UserError(f"--grid {text!r}: {part.strip()!r} is not an integer grid size "
+                            f"or 'all'") from None
     return grids
 
 

@@ -1,4 +1,4 @@
-"""`pcbdata build d2`: synthetic gridless two-layer boards at a difficulty level (SPEC section 2)."""
+"""`pcbdata build d2`: synthetic gridless two-layer boards at a difficulty level (SPEC 2)."""
 from __future__ import annotations
 
 from pcbdata.cli import _build_options as common
@@ -9,8 +9,8 @@ HELP = "D2 gridless two-layer boards with multi-pin nets, at the benchmark's or 
 
 def register(parser) -> None:
     parser.add_argument("--level", default="default", metavar="NAME",
-                        help="difficulty level from pcbdata/resources/presets/d2_levels.toml (default: the "
-                             "benchmark's); `pcbdata levels` lists them")
+                        help="difficulty level from pcbdata/resources/presets/d2_levels.toml "
+                             "(default: the benchmark's); `pcbdata levels` lists them")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         dest="overrides",
                         help="override one parameter (repeatable), TOML values: "

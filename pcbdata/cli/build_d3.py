@@ -12,7 +12,8 @@ def register(parser) -> None:
     parser.add_argument("--workers", type=int, default=None, metavar="N",
                         help="KiCad worker processes (default: number of CPUs)")
     parser.add_argument("--recipe", default=None, metavar="PATH",
-                        help="recipe TOML (default: the packaged pcbdata/resources/recipes/d3.toml)")
+                        help="recipe TOML (default: the packaged "
+                             "pcbdata/resources/recipes/d3.toml)")
     parser.add_argument("--tasks-per-worker", type=int, default=20, metavar="N",
                         help="recycle a KiCad worker after N boards (memory; default 20)")
     parser.add_argument("--quiet", action="store_true", help="only print the summary")

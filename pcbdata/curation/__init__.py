@@ -1,7 +1,8 @@
 """D3 curation: rebuild the curated real-board set from a PCBench checkout (SPEC section 3).
 
 Modules, one job each:
-- `recipe`: load and check the versioned recipe (`pcbdata/resources/recipes/d3.toml`), its version and sha256;
+- `recipe`: the versioned recipe (`pcbdata/resources/recipes/d3.toml`), typed and checked, with its
+  version and sha256;
 - `corpus`: scan a checkout (hashes, `final.json` counts, fates known without KiCad);
 - `picks`: characteristics order, tiers, evaluation picks (pure functions);
 - `attribution`: source repository, author, licence (SPDX) per board;

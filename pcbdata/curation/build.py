@@ -35,10 +35,21 @@ from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.kicad.pool import KicadError, KicadPool, Outcome
 from pcbdata.manifest import FORMAT, d3_facts, merge_configs, read_manifest, write_manifest
 from pcbdata.textio import canonical_json, csv_text
-from pcbdata.tree import (ATTRIBUTION_CSV, ATTRIBUTION_JSON, BOARD_FILE, CHARACTERISTICS_CSV,
-                          CURATION_REPORT_CSV, CURATION_REPORT_JSON, D3_STATE_DIR,
-                          PCBENCH_LICENCE, PROJECT_FILE, REFERENCE_FILE, board_dir,
-                          folder_holds, manifest_path)
+from pcbdata.tree import (
+    ATTRIBUTION_CSV,
+    ATTRIBUTION_JSON,
+    BOARD_FILE,
+    CHARACTERISTICS_CSV,
+    CURATION_REPORT_CSV,
+    CURATION_REPORT_JSON,
+    D3_STATE_DIR,
+    PCBENCH_LICENCE,
+    PROJECT_FILE,
+    REFERENCE_FILE,
+    board_dir,
+    folder_holds,
+    manifest_path,
+)
 
 STATE_DIR = D3_STATE_DIR
 BOARD_FILES = (BOARD_FILE, PROJECT_FILE, REFERENCE_FILE)
@@ -63,11 +74,6 @@ def state_key(board: corpus.SourceBoard, recipe: Recipe, kicad_version: str) -> 
 def drc_counts(report: DrcReport) -> tuple[dict[str, int], int]:
     """Error-severity violations per type and unconnected items (excluded markers left out)."""
     return report.error_counts()
-
-
-def is_kept(report: DrcReport, keep: KeepCriteria) -> bool:
-    """The revalidation rule of the recipe's `[keep]` table."""
-    return report.within(keep.max_errors, keep.max_unconnected)
 
 
 def judge(result: dict, keep: KeepCriteria) -> dict:
@@ -298,7 +304,8 @@ def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceB
             states: dict[str, dict], store: StateStore, kicad_version: str) -> dict:
     """Writes the board trees, the tables and the manifest (last); returns the summary."""
     cur = _curate(source, recipe, boards, states)
-    configs, expected = {}, set()
+    configs: dict[str, dict] = {}
+    expected: set[Path] = set()
     for tier, config in D3_TIERS.items():
         splits = {}
         for split in D3_SPLITS:

@@ -99,7 +99,8 @@ def apply_replacements(chosen: list[Row], tier_rows: list[Row], config: str,
 
 
 def evaluation_subsets(tiers: dict[str, list[Row]], recipe: Recipe,
-                       unloadable: frozenset[str] = frozenset()) -> tuple[dict[str, list[Row]], list]:
+                       unloadable: frozenset[str] = frozenset(),
+                       ) -> tuple[dict[str, list[Row]], list]:
     """Test subsets per tier, in table order, with the recipe's overrides applied."""
     rule = recipe.picks
     notes: list[dict] = []

@@ -26,7 +26,8 @@ class D1Params:
         if not isinstance(self.grid, int) or self.grid < 2:
             raise UserError(f"D1 grid size must be an integer >= 2, got {self.grid!r}")
         if self.placement not in PLACEMENTS:
-            raise UserError(f"unknown D1 placement {self.placement!r}; choose one of {', '.join(PLACEMENTS)}")
+            raise UserError(f"unknown D1 placement {self.placement!r}; choose one of "
+                            f"{', '.join(PLACEMENTS)}")
         if self.n_nets < 1:
             raise UserError(f"D1 needs at least one net, got n_nets={self.n_nets}")
         if 2 * self.n_nets > self.grid * self.grid:

@@ -9,6 +9,7 @@ import os
 import shutil
 import tempfile
 
+
 def pcbnew_module():
     """KiCad's `pcbnew`, imported lazily: only engine workers import KiCad."""
     import pcbnew

@@ -24,8 +24,13 @@ from pcbdata.hashing import sha256_bytes, sha256_file
 from pcbdata.kicad.basics import board_drc_text
 from pcbdata.kicad.basics import pcbnew_module as _pcbnew
 from pcbdata.kicad.drc_report import parse_drc_report
-from pcbdata.kicad.projectfile import (check_project, default_clearance, dumps_project,
-                                       patch_project, with_default_clearance)
+from pcbdata.kicad.projectfile import (
+    check_project,
+    default_clearance,
+    dumps_project,
+    patch_project,
+    with_default_clearance,
+)
 from pcbdata.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE
 
 _ACTUAL = re.compile(r"actual ([0-9.]+) mm")

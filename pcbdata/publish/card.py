@@ -4,14 +4,21 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import yaml
 
 from pcbdata.curation.recipe import tier_rules
 from pcbdata.errors import UserError
 from pcbdata.manifest import board_fact
-from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, INTERRUPTED_KEY, config_key,
-                                    default_config, split_key)
+from pcbdata.publish.layout import (
+    ATTRIBUTION_NAME,
+    CARD_NAME,
+    INTERRUPTED_KEY,
+    config_key,
+    default_config,
+    split_key,
+)
 from pcbdata.publish.rows import is_redistributable
 
 PRETTY_NAME = "PCBWorld-Bench board sets"
@@ -42,7 +49,8 @@ _NUMBERS = {1: "one", 2: "two", 4: "four", 6: "six", 8: "eight"}
 
 def _d3_text(manifest: dict) -> str:
     """How D3 was made, with the tier and pick numbers of the recipe the set was built with."""
-    entry = next((cfg for cfg in manifest["configs"].values() if cfg.get("family") == "d3"), {})
+    entry: dict = next((cfg for cfg in manifest["configs"].values()
+                        if cfg.get("family") == "d3"), {})
     tiers, picks = tier_rules(entry.get("parameters"))
     layers = "" if picks.layers is None else \
         f"{_NUMBERS.get(picks.layers, str(picks.layers))}-layer boards, "
@@ -75,7 +83,7 @@ def size_category(rows: int) -> str:
 
 def _licences(manifest: dict) -> set[str]:
     out = set()
-    for name, cfg in manifest["configs"].items():
+    for cfg in manifest["configs"].values():
         if cfg.get("family") != "d3":
             out.add(GENERATED_LICENSE)
             continue
@@ -87,7 +95,7 @@ def _licences(manifest: dict) -> set[str]:
 
 def _attribution(entry: dict) -> dict:
     """Source and licence fields of a D3 board entry, whatever nesting the manifest uses."""
-    flat = {}
+    flat: dict[str, Any] = {}
     for key, value in entry.items():
         if isinstance(value, dict):
             for sub, subvalue in value.items():
@@ -118,7 +126,7 @@ def yaml_header(manifest: dict, state: dict) -> dict:
     entries = []
     for config in configs:
         splits = state["configs"][config]["splits"]
-        entry = {"config_name": config}
+        entry: dict[str, Any] = {"config_name": config}
         if config == default:
             entry["default"] = True
         entry["data_files"] = [{"split": split, "path": sorted(splits[split]["shards"])}
@@ -126,7 +134,7 @@ def yaml_header(manifest: dict, state: dict) -> dict:
         entries.append(entry)
     rows = sum(s["rows"] for c in configs for s in state["configs"][c]["splits"].values())
     licences = _licences(manifest)
-    header = {"pretty_name": PRETTY_NAME}
+    header: dict[str, Any] = {"pretty_name": PRETTY_NAME}
     if licences == {GENERATED_LICENSE}:
         header["license"] = GENERATED_LICENSE
     else:
@@ -188,7 +196,8 @@ def attribution_markdown(manifest: dict) -> str | None:
              "published rows carry only a source pointer and hashes, and `pcbdata build d3` "
              "restores them from a PCBench checkout. The licence texts are in the `licenses/` "
              "folder of the pcbdata repository.", "",
-             "| config | board | source | author | licence (SPDX) | PCBench licence | published as |",
+             "| config | board | source | author | licence (SPDX) | PCBench licence "
+             "| published as |",
              "|---|---|---|---|---|---|---|"]
     for config, board_id, a, redistributable in rows:
         cells = [config, board_id, a["repository"] or "-", a["author"] or "-", a["licence"] or "-",

@@ -25,12 +25,30 @@ from pcbdata.hashing import sha256_file, sha256_text
 from pcbdata.manifest import board_fact, read_manifest
 from pcbdata.publish import pictures
 from pcbdata.publish.card import attribution_markdown, card_text
-from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, INTERRUPTED_KEY, LOCK_NAME,
-                                    PICTURES_DIR, PUBLISH_FORMAT, SHARD_RE, STAGE_NAME, STATE_NAME,
-                                    TEXT_COLUMNS, config_key, shard_name, split_key, suggest,
-                                    write_file)
-from pcbdata.publish.rows import (KNOWN_FACTS, is_redistributable, iter_rows, schema_for,
-                                  table_from_rows)
+from pcbdata.publish.layout import (
+    ATTRIBUTION_NAME,
+    CARD_NAME,
+    INTERRUPTED_KEY,
+    LOCK_NAME,
+    PICTURES_DIR,
+    PUBLISH_FORMAT,
+    SHARD_RE,
+    STAGE_NAME,
+    STATE_NAME,
+    TEXT_COLUMNS,
+    config_key,
+    shard_name,
+    split_key,
+    suggest,
+    write_file,
+)
+from pcbdata.publish.rows import (
+    KNOWN_FACTS,
+    is_redistributable,
+    iter_rows,
+    schema_for,
+    table_from_rows,
+)
 from pcbdata.textio import canonical_json
 from pcbdata.tree import BOARD_FILE, REFERENCE_FILE, arrays_path, board_dir
 
@@ -41,7 +59,8 @@ DEFAULT_PREVIEWS = 3
 _SMALL_COLUMNS = ["config", "split", "family", "set_version", "parameters"]
 
 
-STUB_CARD = (f"---\n{INTERRUPTED_KEY}: true\n---\n\n# Publishing of this board set did not finish\n\n"
+STUB_CARD = (f"---\n{INTERRUPTED_KEY}: true\n---\n\n"
+             "# Publishing of this board set did not finish\n\n"
              "Run `pcbdata publish DIR` again; until then the set cannot be loaded.\n")
 
 
@@ -81,19 +100,21 @@ def _up_to_date(root: Path, manifest: dict, config: str, state: dict) -> bool:
     for split in entry["splits"].values():
         for rel, info in split["shards"].items():
             path = root / rel
-            if not path.is_file() or path.stat().st_size != info["bytes"] or sha256_file(path) != info["sha256"]:
+            if (not path.is_file() or path.stat().st_size != info["bytes"]
+                    or sha256_file(path) != info["sha256"]):
                 return False
     return all((root / p).is_file() for p in entry.get("pictures", []))
 
 
-def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str, has_cells: bool) -> dict:
+def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str,
+                 has_cells: bool) -> dict:
     schema = schema_for(cfg, has_cells)
     stats_columns = [f.name for f in schema if f.name in KNOWN_FACTS or f.name in
                      ("board_id", "split", "config", "redistributable", "seed", "grid_size")]
     out_dir = stage / config
     out_dir.mkdir(parents=True, exist_ok=True)
     chunks: list[Path] = []
-    writer = None
+    writer: pq.ParquetWriter | None = None
     buffer: list[dict] = []
     buffer_bytes = shard_bytes = 0
     rows = raw_total = 0
@@ -118,6 +139,7 @@ def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str, ha
         size += sum(len(f["text"] or "") for f in row["other_files"])
         if shard_bytes and shard_bytes + size > SHARD_BYTES:
             flush()
+            assert writer is not None  # shard_bytes > 0: something was written
             writer.close()
             writer, shard_bytes = None, 0
         buffer.append(row)
@@ -136,7 +158,8 @@ def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str, ha
     for k, chunk in enumerate(chunks):
         final = out_dir / shard_name(split, k, len(chunks))
         os.replace(chunk, final)
-        shards[f"{config}/{final.name}"] = {"sha256": sha256_file(final), "bytes": final.stat().st_size}
+        shards[f"{config}/{final.name}"] = {"sha256": sha256_file(final),
+                                            "bytes": final.stat().st_size}
     return {"rows": rows, "shards": shards, "raw_bytes": raw_total,
             "parquet_bytes": sum(s["bytes"] for s in shards.values())}
 
@@ -160,8 +183,8 @@ def _stage_pictures(root: Path, stage: Path, config: str, cfg: dict, previews: i
 def _stage_histogram(stage: Path, config: str, cfg: dict) -> list[str]:
     splits = cfg.get("splits", {})
     hist_splits = ["full"] if "full" in splits else list(splits)
-    pads = [board_fact(b, "n_pads") for s in hist_splits for b in splits[s].get("boards", {}).values()
-            if board_fact(b, "n_pads") is not None]
+    pads = [board_fact(b, "n_pads") for s in hist_splits
+            for b in splits[s].get("boards", {}).values() if board_fact(b, "n_pads") is not None]
     if not pads:
         return []
     rel = f"{PICTURES_DIR}/{config}/pads.svg"
@@ -177,7 +200,8 @@ def _preview_sources(root: Path, config: str, cfg: dict, previews: int) -> list[
     preview_split = "test" if "test" in splits else (sorted(splits, key=split_key) or [None])[0]
     if preview_split is None or previews <= 0:
         return []
-    boards = [(bid, board_fact(b, "n_pads") or 0) for bid, b in splits[preview_split].get("boards", {}).items()
+    boards = [(bid, board_fact(b, "n_pads") or 0)
+              for bid, b in splits[preview_split].get("boards", {}).items()
               if is_redistributable(b)]
     out = []
     for board_id in pictures.pick_previews(boards, previews):
@@ -199,7 +223,8 @@ def _d3_tier_histogram(manifest: dict, stage: Path) -> list[str]:
         split = "full" if "full" in cfg.get("splits", {}) else None
         boards = [b for s, e in cfg.get("splits", {}).items() if split in (None, s)
                   for b in e.get("boards", {}).values()]
-        tiers[config] = [board_fact(b, "n_pads") for b in boards if board_fact(b, "n_pads") is not None]
+        tiers[config] = [board_fact(b, "n_pads") for b in boards
+                         if board_fact(b, "n_pads") is not None]
     if not any(tiers.values()):
         return []
     a, b, c = D3_TIERS["A"], D3_TIERS["B"], D3_TIERS["C"]
@@ -217,8 +242,8 @@ def _d3_tier_histogram(manifest: dict, stage: Path) -> list[str]:
     return [rel]
 
 
-def publish_set(root: str | Path, configs: list[str] | None = None, *, previews: int = DEFAULT_PREVIEWS,
-                force: bool = False, log=None) -> None:
+def publish_set(root: str | Path, configs: list[str] | None = None, *,
+                previews: int = DEFAULT_PREVIEWS, force: bool = False, log=None) -> None:
     """Writes parquet shards, pictures and the card for the configs of `root`'s manifest.
 
     `configs` are (re)written even when up to date; the other configs of the manifest are
@@ -277,7 +302,8 @@ def _remove_published(root: Path, config: str) -> None:
     shutil.rmtree(root / PICTURES_DIR / config, ignore_errors=True)
 
 
-def _commit(root: Path, stage: Path, manifest: dict, state: dict, staged: dict, extra: list[str]) -> None:
+def _commit(root: Path, stage: Path, manifest: dict, state: dict, staged: dict,
+            extra: list[str]) -> None:
     # From here until the real card is written the set is "being published": a stub card that
     # `load`, `verify` and `datasets` all refuse (so an interrupted commit never looks complete).
     write_file(root / CARD_NAME, STUB_CARD)

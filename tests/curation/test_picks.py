@@ -6,14 +6,22 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pcbdata.curation.picks import Row, apply_replacements, array_split, assign_tiers, \
-    evaluation_subsets, number_rows, picks
+from pcbdata.curation.picks import (
+    Row,
+    apply_replacements,
+    array_split,
+    assign_tiers,
+    evaluation_subsets,
+    number_rows,
+    picks,
+)
 from pcbdata.curation.recipe import Override, load_recipe, parse_recipe
 
 
 def rows(spec):
     """spec: list of (name, pads, nets, components, layers)."""
-    return [Row(name=n, pads=p, nets=k, components=c, layers=l) for n, p, k, c, l in spec]
+    return [Row(name=n, pads=p, nets=k, components=c, layers=layers)
+            for n, p, k, c, layers in spec]
 
 
 @pytest.mark.parametrize("n", range(0, 23))
@@ -116,7 +124,8 @@ def test_published_replacement_in_its_bin():
     recipe = load_recipe()
     # 20 boards in B, 10 bins of 2, lower median = first of each bin; badge is the first of
     # bin 0 and cat-trainer the second (same pads, more nets) -> cat-trainer replaces it
-    spec = [("badge2016_Badge_init", 93, 20, 650, 2), ("cat-trainer_teensy_base_pcb", 93, 26, 28, 2)]
+    spec = [("badge2016_Badge_init", 93, 20, 650, 2),
+            ("cat-trainer_teensy_base_pcb", 93, 26, 28, 2)]
     spec += [(f"b{i:02d}", 94 + i, 1, 1, 2) for i in range(18)]
     table = number_rows(rows(spec))
     subsets, notes = evaluation_subsets({"A": [], "B": table, "C": []}, recipe)

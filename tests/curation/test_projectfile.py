@@ -5,8 +5,8 @@ import json
 
 import pytest
 
-from pcbdata.kicad.projectfile import default_clearance, dumps_project, patch_project
 from pcbdata.curation.recipe import load_recipe
+from pcbdata.kicad.projectfile import default_clearance, dumps_project, patch_project
 
 SPEC_IGNORED = {"solder_mask_bridge", "drill_out_of_range", "malformed_courtyard",
                 "courtyards_overlap", "annular_width", "copper_edge_clearance",

@@ -1,4 +1,5 @@
-"""The committed manifests of released sets (`pcbdata/resources/releases/`) match a rebuild of their small splits:
+"""The committed manifests of released sets (`pcbdata/resources/releases/`) match a rebuild of
+their small splits:
 a change that alters boards, splits or parameters cannot land unnoticed."""
 from __future__ import annotations
 

@@ -63,7 +63,8 @@ def test_missing_card_gives_a_clear_error(published_copy):
 
 def test_missing_shard_is_named(published_copy):
     (published_copy / "d3-b" / "full-00000-of-00001.parquet").unlink()
-    with pytest.raises(UserError, match="full-00000-of-00001.parquet: shard listed in the card is missing"):
+    with pytest.raises(UserError,
+                       match="full-00000-of-00001.parquet: shard listed in the card is missing"):
         pcbdata.load("d3-b", split="full", root=published_copy)
     problems = verify_published(published_copy, read_manifest(published_copy))
     assert problems == ["d3-b/full-00000-of-00001.parquet: shard missing",
@@ -85,7 +86,8 @@ def test_verify_names_missing_extra_and_altered_boards(published):
         "d2/test/board_00001: extra row, not in the manifest",
     ]
     manifest["configs"]["d2-hard"] = manifest["configs"]["d2"]
-    assert "d2-hard: in the manifest but not published (not in the card)" in verify_published(published, manifest)
+    problems = verify_published(published, manifest)
+    assert "d2-hard: in the manifest but not published (not in the card)" in problems
 
 
 def test_altered_row_text_is_detected(published_copy):
@@ -102,7 +104,8 @@ def test_altered_row_text_is_detected(published_copy):
     pq.write_table(table, shard, compression="zstd")
     (published_copy / "publish.json").unlink()
     problems = verify_published(published_copy, read_manifest(published_copy))
-    assert problems == ["d2/validation/board_00000: board.kicad_pcb altered (text does not match its sha256)"]
+    assert problems == ["d2/validation/board_00000: board.kicad_pcb altered (text does not "
+                        "match its sha256)"]
 
 
 def test_publish_config_typo_suggests(published_copy):
@@ -114,7 +117,8 @@ def test_publish_refuses_a_tree_altered_after_the_build(tmp_path):
     root = tmp_path / "set"
     make_set(root, d2={"test": 2}, d1={"test": 1}, d3=False)
     (root / "d2" / "test" / "board_00001" / "board.kicad_pcb").write_text("(kicad_pcb)")
-    with pytest.raises(UserError, match="board_00001/board.kicad_pcb: sha256 differs from the manifest"):
+    with pytest.raises(UserError,
+                       match="board_00001/board.kicad_pcb: sha256 differs from the manifest"):
         publish_set(root, previews=0)
     assert not (root / "README.md").exists()
 
