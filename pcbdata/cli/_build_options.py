@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import os
 
+from pcbdata.configs import SYNTHETIC_SPLITS as SPLITS
 from pcbdata.errors import UserError
-from pcbdata.generators.base import SPLITS
 
 
 def add_common(parser) -> None:

@@ -13,8 +13,6 @@ from typing import Any, Protocol, runtime_checkable
 from pcbdata.board import Board, nm_to_mm
 from pcbdata.tree import synthetic_board_id
 
-SPLITS = ("train", "validation", "test")
-
 
 def board_id(index: int) -> str:
     return synthetic_board_id(index)

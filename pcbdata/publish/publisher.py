@@ -281,8 +281,8 @@ def _stage_config(root: Path, stage: Path, manifest: dict, config: str, previews
                   renderer: pictures.PreviewRenderer, say) -> dict:
     """Writes one config's shards and pictures into the staging folder; returns its state."""
     cfg = manifest["configs"][config]
-    has_cells = cfg.get("family") == "d1" and any(
-        arrays_path(root, config, s).is_file() for s in cfg.get("splits", {}))
+    # split arrays (D1's Connector arrays) become the cell columns
+    has_cells = any(arrays_path(root, config, s).is_file() for s in cfg.get("splits", {}))
     splits = {}
     for split in sorted(cfg.get("splits", {}), key=split_key):
         say(f"publishing {config}/{split}")
