@@ -28,7 +28,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from pcbdata.kicad import kicad_cli  # noqa: E402
+from pcbdata.kicad.cli_tools import kicad_cli  # noqa: E402
 from pcbdata.evaluator.metrics import COUNTED_WARNINGS  # noqa: E402
 from pcbdata.evaluator.runs import evaluate_set, list_instances, list_rollouts  # noqa: E402
 

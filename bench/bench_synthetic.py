@@ -29,7 +29,8 @@ def kicad_cli_counts(report_path: Path) -> tuple[int, int]:
 
 
 def main() -> None:
-    from pcbdata.kicad import DrcReport, KicadPool, kicad_cli_drc
+    from pcbdata.kicad import DrcReport, KicadPool
+    from pcbdata.kicad.cli_tools import kicad_cli_drc
 
     results = {"machine": machine()}
     with tempfile.TemporaryDirectory(prefix="pcbdata-bench-") as tmp:

@@ -1,8 +1,13 @@
-"""The registry of board-set configs, kept as data: one `ConfigSpec` per published config.
+"""The registry of board-set configs, kept as data: one `ConfigSpec` per config.
 
 A config is what a user names (`d1-g50`, `d2`, `d2-hard`, `d3-a`): its family, level or grid or
-tier, version, seed and how its random streams are coupled. The CLI, the golden tests,
-publication and the routing environment's ids all read this one registry.
+tier, version, seed, split sizes and how its random streams are coupled. This module is the one
+place that makes config names and reads them back; the CLI and the build library
+(`pcbdata.builders`), the golden tests, publication and the routing environment's ids all use
+it.
+
+Names: `d1-g<grid>` (`-<placement>` unless uniform), `d2` (the benchmark level), `d2-<level>`,
+`d2-<level>-custom-<hash>` (a level with `--set` overrides; hash of the parameters), `d3-<tier>`.
 
 Seed coupling, stated once: every synthetic board draws from its own stream
 `SeedSequence(entropy=seed, spawn_key=(family, variant, split, index))` (`pcbdata.rng`). D1's
@@ -14,12 +19,17 @@ board by board. Changing that would change every D2 board and needs a major vers
 from __future__ import annotations
 
 import difflib
+import json
 import re
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 from pcbdata.errors import UserError
+from pcbdata.hashing import sha256_text
 
-FAMILIES = ("d1", "d2", "d3")
+if TYPE_CHECKING:
+    from pcbdata.generators.base import Generator
+
 SYNTHETIC_SPLITS = ("train", "validation", "test")
 D3_SPLITS = ("test", "full")
 D3_TIERS = {"A": "d3-a", "B": "d3-b", "C": "d3-c"}
@@ -29,13 +39,15 @@ SEED_COUPLING = {
           "board by board",
     "d3": "no random draws: boards come from the PCBench snapshot and the recipe",
 }
-_D1_NAME = re.compile(r"d1-g(?P<grid>\d+)(?:-(?P<placement>random-walk))?")
+_D1_NAME = re.compile(r"d1-g(?P<grid>\d+)(?:-(?P<placement>.+))?")
 
 
 @dataclass(frozen=True)
 class ConfigSpec:
-    """One config of the registry. `parameters` are the generator parameters (D1, D2) or the
-    recipe's tier definition (D3); `seed` is None for D3."""
+    """One config. `parameters` are the generator parameters (D1, D2) or the recipe's tier
+    definition (D3); `seed` is None for D3; `sizes` are the default split sizes; `manifest`
+    holds the family's extra fields of the manifest's config entry (D1: connector version; D2:
+    level, description, overrides)."""
 
     name: str
     family: str
@@ -49,6 +61,8 @@ class ConfigSpec:
     rank: int | None = None
     tier: str | None = None
     parameters: dict = field(default_factory=dict, compare=False, hash=False)
+    sizes: dict[str, int] = field(default_factory=dict, compare=False, hash=False)
+    manifest: dict[str, Any] = field(default_factory=dict, compare=False, hash=False)
 
     @property
     def seed_coupling(self) -> str:
@@ -58,69 +72,91 @@ class ConfigSpec:
     def synthetic(self) -> bool:
         return self.family in ("d1", "d2")
 
-    def generator(self):
-        """The generator of a synthetic config (D1, D2); D3 has none (`UserError`)."""
+    def generator(self) -> Generator:
+        """The generator of a synthetic config (D1, D2), from its parameters; D3 has none
+        (`UserError`)."""
         if self.family == "d1":
             from pcbdata.generators import D1Generator, D1Params
 
-            return D1Generator(D1Params(grid=self.grid, placement=self.placement,
-                                        n_nets=self.parameters["n_nets"]))
+            assert self.grid is not None
+            params = D1Params(grid=self.grid, placement=self.parameters["placement"],
+                              n_nets=self.parameters["n_nets"])
+            return D1Generator(params, connector_version=self.manifest["connector_version"])
         if self.family == "d2":
-            from pcbdata.generators import D2Generator
-            from pcbdata.presets import d2_level
+            from pcbdata.generators import D2Generator, D2Params
 
-            return D2Generator(d2_level(self.level).params)
+            return D2Generator(D2Params.from_dict(self.parameters, f"config {self.name}"))
         raise UserError(f"config {self.name!r}: D3 boards are curated, not generated "
                         f"(build them with `pcbdata build d3`)")
 
 
-def d1_config(grid: int, placement: str = "uniform") -> ConfigSpec:
-    """The D1 config of any grid size and placement (the registry lists the preset's grids)."""
+def d1_name(grid: int, placement: str = "uniform") -> str:
+    return f"d1-g{grid}" + ("" if placement == "uniform" else f"-{placement}")
+
+
+def d2_name(level: str, parameters: dict | None = None) -> str:
+    """`d2` for the benchmark level, `d2-<level>` otherwise; `parameters` (given when the level
+    has overrides) add the hash of the full parameter set."""
+    base = "d2" if level == "default" else f"d2-{level}"
+    if parameters is None:
+        return base
+    digest = sha256_text(json.dumps(parameters, sort_keys=True))
+    return f"{base}-custom-{digest[:8]}"
+
+
+def d1_config(grid: int, placement: str | None = None) -> ConfigSpec:
+    """The D1 config of any grid size and placement (default: the preset's)."""
     from pcbdata.generators import D1Params
     from pcbdata.presets import d1_preset
 
     preset = d1_preset()
+    placement = placement or preset.placement
     params = D1Params(grid=grid, placement=placement, n_nets=preset.n_nets)
-    suffix = "" if placement == "uniform" else f"-{placement}"
-    return ConfigSpec(name=f"d1-g{grid}{suffix}", family="d1", version=preset.version,
+    return ConfigSpec(name=d1_name(grid, placement), family="d1", version=preset.version,
                       splits=SYNTHETIC_SPLITS, seed=preset.seed, grid=grid, placement=placement,
                       description=f"D1 grid boards, G = {grid}, {placement} placement",
-                      parameters=params.as_dict())
+                      parameters=params.as_dict(), sizes=dict(preset.splits),
+                      manifest={"connector_version": preset.connector_version})
 
 
-def _d2_configs() -> list[ConfigSpec]:
-    from pcbdata.presets import d2_level, d2_levels
+def d2_config(level: str = "default", overrides: dict | None = None) -> ConfigSpec:
+    """The D2 config of a level, with parameters overridden (`--set`) if any."""
+    from pcbdata.presets import d2_level
 
-    specs = []
-    for name, raw in sorted(d2_levels().items(), key=lambda item: item[1]["rank"]):
-        level = d2_level(name)
-        specs.append(ConfigSpec(name=level.config_name, family="d2", version=level.version,
-                                splits=SYNTHETIC_SPLITS, seed=level.seed, level=name,
-                                rank=level.rank, description=level.description,
-                                parameters=level.params.as_dict()))
-    return specs
+    lv = d2_level(level, overrides)
+    parameters = lv.params.as_dict()
+    return ConfigSpec(name=d2_name(lv.name, parameters if lv.overrides else None), family="d2",
+                      version=lv.version, splits=SYNTHETIC_SPLITS, seed=lv.seed, level=lv.name,
+                      rank=lv.rank, description=lv.description, parameters=parameters,
+                      sizes=dict(lv.splits),
+                      manifest={"level": lv.name, "level_description": lv.description,
+                                "overrides": lv.overrides})
 
 
 def _d3_configs() -> list[ConfigSpec]:
+    from dataclasses import asdict
+
     from pcbdata.curation.recipe import load_recipe
 
     recipe = load_recipe()
-    tiers = recipe.data.get("tiers", {})
-    descriptions = {"A": f"the {tiers.get('a_size', 100)} smallest kept boards",
-                    "B": f"the other boards with at most {tiers.get('b_max_pads', 100)} pads",
-                    "C": f"the boards with more than {tiers.get('b_max_pads', 100)} pads"}
+    tiers = recipe.tiers
+    descriptions = {"A": f"the {tiers.a_size} smallest kept boards",
+                    "B": f"the other boards with at most {tiers.b_max_pads} pads",
+                    "C": f"the boards with more than {tiers.b_max_pads} pads"}
     return [ConfigSpec(name=config, family="d3", version=recipe.version, splits=D3_SPLITS,
                        tier=tier, description=f"D3-{tier}: {descriptions[tier]}",
-                       parameters=dict(tiers))
+                       parameters=asdict(tiers))
             for tier, config in D3_TIERS.items()]
 
 
 def registry() -> dict[str, ConfigSpec]:
     """Every named config: D1 at the preset's grids (uniform), D2 at every level, D3 tiers."""
-    from pcbdata.presets import d1_preset
+    from pcbdata.presets import d1_preset, d2_levels
 
     specs = [d1_config(grid) for grid in d1_preset().grid_sizes]
-    specs += _d2_configs() + _d3_configs()
+    levels = d2_levels()
+    specs += [d2_config(name) for name in sorted(levels, key=lambda n: levels[n]["rank"])]
+    specs += _d3_configs()
     return {spec.name: spec for spec in specs}
 
 
@@ -136,3 +172,30 @@ def get_config(name: str) -> ConfigSpec:
     close = difflib.get_close_matches(name, list(known), n=1, cutoff=0.5)
     hint = f"; did you mean {close[0]!r}?" if close else ""
     raise UserError(f"unknown config {name!r}{hint} (configs: {', '.join(known)})")
+
+
+def family_of(name: str) -> str | None:
+    """The family a config name belongs to (None for a name of no family)."""
+    if _D1_NAME.fullmatch(name):
+        return "d1"
+    if name == "d2" or name.startswith("d2-"):
+        return "d2"
+    if name in D3_TIERS.values() or name.startswith("d3"):
+        return "d3"
+    return None
+
+
+def order_key(name: str) -> tuple:
+    """Reading order of configs: d2 (then its levels by name), d1 by grid size, d3 tiers, then
+    anything else; the first config of a set is its default."""
+    family = family_of(name)
+    if family == "d2":
+        return (0, 0 if name == "d2" else 1, "", name)
+    if family == "d1":
+        match = _D1_NAME.fullmatch(name)
+        assert match is not None
+        placement = match.group("placement")
+        return (1, int(match.group("grid")), f"-{placement}" if placement else "", name)
+    if family == "d3":
+        return (2, 0, "", name)
+    return (3, 0, "", name)

@@ -6,16 +6,14 @@ UUIDs are derived from the board's `uuid_seed`, so the same board gives the same
 from __future__ import annotations
 
 import hashlib
-import json
 import uuid
 
 from pcbdata.board import Board, Pad, Rules
+from pcbdata.textio import canonical_json
+from pcbdata.tree import BOARD_FILE, PROJECT_FILE, RULES_FILE
 
 KICAD_PCB_VERSION = 20241229  # the file format KiCad 9.0 writes
 GENERATOR = "pcbdata"
-BOARD_FILE = "board.kicad_pcb"
-PROJECT_FILE = "board.kicad_pro"
-RULES_FILE = "board.kicad_dru"
 
 # The layer table KiCad 9 writes for a two-layer board (ids changed in 9.0: B.Cu is 2).
 _LAYERS = """\t(layers
@@ -88,7 +86,8 @@ def _pad_sexpr(pad: Pad, net_no: int, uid: str) -> list[str]:
     else:
         head = '(pad "1" smd rect'
         body = [at, size, f'(layers "{side}.Cu" "{side}.Mask" "{side}.Paste")']
-    return [f"\t\t{head}"] + [f"\t\t\t{b}" for b in body + [net, f"(uuid {_quote(uid)})"]] + ["\t\t)"]
+    lines = [f"\t\t\t{b}" for b in body + [net, f"(uuid {_quote(uid)})"]]
+    return [f"\t\t{head}", *lines, "\t\t)"]
 
 
 def _footprint(pad: Pad, ref: str, net_no: int, uuids: _Uuids) -> str:
@@ -145,7 +144,8 @@ def board_text(board: Board) -> str:
     for t in board.tracks:
         out.append(
             f"\t(segment\n\t\t(start {mm(t.x1)} {mm(t.y1)})\n\t\t(end {mm(t.x2)} {mm(t.y2)})\n"
-            f"\t\t(width {mm(t.width)})\n\t\t(layer {_quote(t.layer)})\n\t\t(net {numbers[t.net]})\n"
+            f"\t\t(width {mm(t.width)})\n\t\t(layer {_quote(t.layer)})\n"
+            f"\t\t(net {numbers[t.net]})\n"
             f"\t\t(uuid {_quote(uuids.next())})\n\t)\n"
         )
     for a in board.arcs:
@@ -195,7 +195,7 @@ def project_text(rules: Rules, filename: str = PROJECT_FILE) -> str:
             "meta": {"version": 4},
         },
     }
-    return json.dumps(project, indent=2, sort_keys=True) + "\n"
+    return canonical_json(project, indent=2)
 
 
 def custom_rules_text(rules: Rules) -> str | None:

@@ -11,8 +11,17 @@ gives the same bytes:
                                                                          <fact>: value, ...}}}}}}}
 
 Files of a board live in `DIR/<config>/<split>/<board_id>/`; split-level arrays in
-`DIR/<config>/`. A set is complete exactly when its manifest exists: the manifest is written
-last, atomically.
+`DIR/<config>/` (`pcbdata.tree`). A set is complete exactly when its manifest exists: the
+manifest is written last, atomically.
+
+**One vocabulary of board facts** (`BOARD_FACTS`, the parquet columns): `n_nets`, `n_pads`,
+`n_components`, `n_layers`, `routing_layers`, `width_mm`, `height_mm`. D1/D2 entries store them
+under these names. D3 entries of format 1 store four of them under the names of the D3
+characteristics table (`nets`, `pads`, `components`, `layers`); the released D3 manifests pin
+those bytes, so renaming them would need a new manifest format and new releases. The mapping
+therefore lives here, once (`D3_FACT_NAMES`): the D3 build writes entries through it
+(`d3_facts`), every reader goes through `board_fact`. A format 2 would store `BOARD_FACTS` for
+every family and drop the mapping.
 """
 from __future__ import annotations
 
@@ -21,17 +30,36 @@ from pathlib import Path
 
 from pcbdata.errors import UserError
 from pcbdata.fsutil import write_atomic
+from pcbdata.textio import canonical_json
+from pcbdata.tree import MANIFEST_NAME, manifest_path
 
-MANIFEST_NAME = "manifest.json"
+__all__ = ["FORMAT", "MANIFEST_NAME", "BOARD_FACTS", "D3_FACT_NAMES", "manifest_path", "dumps",
+           "read_manifest", "write_manifest", "merge_configs", "board_fact", "d3_facts"]
+
 FORMAT = "pcbdata-manifest/1"
+BOARD_FACTS = ("n_nets", "n_pads", "n_components", "n_layers", "routing_layers", "width_mm",
+               "height_mm")
+#: Where D3 entries (format 1) store four of the `BOARD_FACTS`.
+D3_FACT_NAMES = {"n_nets": "nets", "n_pads": "pads", "n_components": "components",
+                 "n_layers": "layers"}
 
 
-def manifest_path(root: str | Path) -> Path:
-    return Path(root) / MANIFEST_NAME
+def board_fact(entry: dict, key: str):
+    """A fact of `BOARD_FACTS` of one board entry, whichever family wrote it (None if absent)."""
+    value = entry.get(key)
+    if value is None and key in D3_FACT_NAMES:
+        value = entry.get(D3_FACT_NAMES[key])
+    return value
+
+
+def d3_facts(nets: int, pads: int, components: int, layers: int) -> dict:
+    """The facts of a D3 board entry, under the names format 1 stores them."""
+    return {D3_FACT_NAMES["n_nets"]: nets, D3_FACT_NAMES["n_pads"]: pads,
+            D3_FACT_NAMES["n_components"]: components, D3_FACT_NAMES["n_layers"]: layers}
 
 
 def dumps(manifest: dict) -> str:
-    return json.dumps(manifest, indent=1, sort_keys=True, ensure_ascii=False) + "\n"
+    return canonical_json(manifest)
 
 
 def read_manifest(root: str | Path) -> dict:

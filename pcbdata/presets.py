@@ -2,14 +2,12 @@
 from __future__ import annotations
 
 import difflib
-import hashlib
-import json
 import tomllib
 from dataclasses import dataclass
-from pcbdata.resources import resource_path
 
 from pcbdata.errors import UserError
 from pcbdata.generators.d2 import D2Params
+from pcbdata.resources import resource_path
 
 
 def _load(name: str) -> dict:
@@ -30,7 +28,8 @@ class D1Preset:
 
 def d1_preset() -> D1Preset:
     data = _load("d1.toml")
-    return D1Preset(version=data["version"], seed=data["seed"], grid_sizes=tuple(data["grid_sizes"]),
+    return D1Preset(version=data["version"], seed=data["seed"],
+                    grid_sizes=tuple(data["grid_sizes"]),
                     n_nets=data["n_nets"], placement=data["placement"],
                     connector_version=data["connector_version"], splits=dict(data["splits"]))
 
@@ -48,12 +47,11 @@ class D2Level:
 
     @property
     def config_name(self) -> str:
-        """`d2` for the benchmark level, `d2-<level>` otherwise; overrides add a short hash."""
-        base = "d2" if self.name == "default" else f"d2-{self.name}"
-        if not self.overrides:
-            return base
-        digest = hashlib.sha256(json.dumps(self.params.as_dict(), sort_keys=True).encode()).hexdigest()
-        return f"{base}-custom-{digest[:8]}"
+        """`d2` for the benchmark level, `d2-<level>` otherwise; overrides add a short hash
+        (`pcbdata.configs.d2_name`)."""
+        from pcbdata.configs import d2_name
+
+        return d2_name(self.name, self.params.as_dict() if self.overrides else None)
 
 
 def d2_levels() -> dict[str, dict]:
@@ -66,7 +64,8 @@ def d2_level(name: str, overrides: dict | None = None) -> D2Level:
     if name not in levels:
         close = difflib.get_close_matches(name, list(levels), n=1, cutoff=0.3)
         hint = f"; did you mean {close[0]!r}?" if close else ""
-        raise UserError(f"unknown D2 level {name!r}{hint} (levels: {', '.join(sorted(levels, key=lambda n: levels[n]['rank']))})")
+        ranked = sorted(levels, key=lambda n: levels[n]["rank"])
+        raise UserError(f"unknown D2 level {name!r}{hint} (levels: {', '.join(ranked)})")
     spec = {k: v for k, v in levels[name].items() if k not in ("rank", "description", "version")}
     where = f"pcbdata/resources/presets/d2_levels.toml level {name!r}"
     D2Params.from_dict(spec, where)  # the preset alone must be valid

@@ -9,7 +9,8 @@ Streams are disjoint per (family, variant, split, index): the spawn key of the S
 from __future__ import annotations
 
 import math
-from typing import Sequence, TypeVar
+from collections.abc import Sequence
+from typing import TypeVar
 
 import numpy as np
 

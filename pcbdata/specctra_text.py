@@ -11,6 +11,7 @@ footprints the mirrored geometry follows the usual mirror-about-Y convention.
 from __future__ import annotations
 
 import re
+
 from pcbdata.sexpr_text import block_end
 
 _PLACE = re.compile(r"^(\s*\(place\s+(\S+)\s+\S+\s+\S+\s+)back(\s)", re.M)
@@ -35,8 +36,10 @@ def _find_named(text: str, kind: str, name: str) -> tuple[int, int] | None:
 
 def _negate_x(numbers: str) -> str:
     values = numbers.split()
-    return " ".join(v if i % 2 else (v[1:] if v.startswith("-") else "-" + v) if v not in ("0", "-0") else v
-                    for i, v in enumerate(values))
+    def negate(v: str) -> str:
+        return v if v in ("0", "-0") else (v[1:] if v.startswith("-") else "-" + v)
+
+    return " ".join(v if i % 2 else negate(v) for i, v in enumerate(values))
 
 
 def _mirror_padstack(body: str, name: str) -> str:
@@ -99,8 +102,8 @@ def flip_back_components(dsn: str) -> tuple[str, set[str]]:
             x = x[1:] if x.startswith("-") else ("-" + x if x not in ("0", "0.0") else x)
             return f"{match.group(1)}{match.group(2)}{_SUFFIX}{match.group(3)}{x}{match.group(5)}"
 
-        body = re.sub(r"(\(pin\s+)(\S+)((?:\s+\(rotate\s+[^)]*\))?\s+\S+\s+)(-?[\d.]+)(\s+-?[\d.]+)",
-                      pin, body)
+        body = re.sub(r"(\(pin\s+)(\S+)((?:\s+\(rotate\s+[^)]*\))?\s+\S+\s+)"
+                      r"(-?[\d.]+)(\s+-?[\d.]+)", pin, body)
         extra_images.append(body)
     extra_stacks = []
     for stack in sorted(stacks):

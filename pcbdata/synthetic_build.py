@@ -11,24 +11,38 @@ import os
 import shutil
 import sys
 import time
+from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from multiprocessing import get_context
 from pathlib import Path
-from typing import Callable
 
 from pcbdata import __version__
-from pcbdata.connector import connector_arrays, npz_bytes
+from pcbdata.errors import EngineError, UserError, ValidationError
+from pcbdata.fsutil import remove_stale_temps, write_atomic, write_dir_atomic
+from pcbdata.generators.base import Generator, SplitArrays
+from pcbdata.hashing import sha256_bytes
 from pcbdata.kicad import KicadPool
 from pcbdata.kicad.drc_report import DrcReport
-from pcbdata.errors import UserError, ValidationError
-from pcbdata.fsutil import remove_stale_temps, sha256_bytes, write_atomic, write_dir_atomic
-from pcbdata.kicad_writer import BOARD_FILE, PROJECT_FILE, RULES_FILE, board_files
-from pcbdata.manifest import FORMAT, MANIFEST_NAME, merge_configs, write_manifest
+from pcbdata.kicad_writer import board_files
+from pcbdata.manifest import FORMAT, merge_configs, write_manifest
 from pcbdata.rng import SEED_SCHEME
+from pcbdata.tree import (
+    BOARD_FILE,
+    MANIFEST_NAME,
+    PROJECT_FILE,
+    REFERENCE_FILE,
+    RULES_FILE,
+    SYNTHETIC_STATE_DIR,
+    arrays_name,
+    arrays_path,
+    board_relpath,
+    check_log_path,
+    folder_holds,
+    split_dir,
+)
 
-STATE_DIR = ".pcbdata"
-REFERENCE_FILE = "reference.kicad_pcb"
+STATE_DIR = SYNTHETIC_STATE_DIR
 _CHUNK = 128
 
 
@@ -39,18 +53,19 @@ class SplitJob:
     config: str
     split: str
     count: int
-    generator: object  # D1Generator or D2Generator (picklable)
+    generator: Generator  # picklable: runs in worker processes
     check_indices: list[int]
 
 
 @dataclass
 class ConfigInfo:
+    """A config's entry in the manifest: `extra` holds the family's own fields."""
+
     family: str
     set_version: str
     seed: int
     parameters: dict
     extra: dict = field(default_factory=dict)
-    connector_version: str | None = None  # D1: write `<split>.npz`
 
 
 @dataclass
@@ -61,6 +76,7 @@ class BuildSummary:
     checked: int = 0
     check_skipped: int = 0
     failures: list[str] = field(default_factory=list)
+    engine_failures: list[tuple[str, str]] = field(default_factory=list)  # (board, reason)
     seconds: float = 0.0
 
     def line(self) -> str:
@@ -81,17 +97,18 @@ def check_sample(count: int, sample: int | None) -> list[int]:
 def _generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> list[dict]:
     """Worker: generates boards, writes their folders if their bytes differ; returns entries."""
     out = []
-    split_dir = Path(root) / job.config / job.split
+    folder = split_dir(root, job.config, job.split)
+    arrays = job.generator if isinstance(job.generator, SplitArrays) else None
     for index in indices:
         instance = job.generator.generate(seed, job.split, index)
         files = board_files(instance.board)
         if instance.reference is not None:
             files[REFERENCE_FILE] = board_files(instance.reference)[BOARD_FILE]
         encoded = {name: text.encode("utf-8") for name, text in files.items()}
-        board_dir = split_dir / instance.board_id
-        written = not _same_folder(board_dir, encoded)
+        board_dir = folder / instance.board_id
+        written = not folder_holds(board_dir, encoded)
         if written:
-            write_dir_atomic(board_dir, encoded)
+            write_dir_atomic(board_dir, dict[str, bytes | str](encoded))
         out.append({
             "index": index,
             "board_id": instance.board_id,
@@ -99,18 +116,9 @@ def _generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> 
             "files": {name: sha256_bytes(data) for name, data in sorted(encoded.items())},
             "facts": instance.facts(job.generator.routing_layers),
             "missing_connections": instance.board.missing_connections,
-            "cells": instance.cells,
+            "array_row": arrays.array_row(instance) if arrays is not None else None,
         })
     return out
-
-
-def _same_folder(folder: Path, files: dict[str, bytes]) -> bool:
-    try:
-        if sorted(os.listdir(folder)) != sorted(files):
-            return False
-        return all((folder / name).read_bytes() == data for name, data in files.items())
-    except (FileNotFoundError, NotADirectoryError):
-        return False
 
 
 class _Progress:
@@ -142,7 +150,7 @@ class _CheckLog:
     """Boards already checked in KiCad, by relative path and board-file sha256."""
 
     def __init__(self, root: Path):
-        self.path = root / STATE_DIR / "checks.jsonl"
+        self.path = check_log_path(root)
         self.done: set[tuple[str, str]] = set()
         if self.path.exists():
             for line in self.path.read_text(encoding="utf-8").splitlines():
@@ -190,25 +198,29 @@ def build_synthetic(root: str | Path, jobs: list[SplitJob], configs: dict[str, C
         for job in jobs:
             seed = configs[job.config].seed
             progress = _Progress(f"{job.config}/{job.split} write", job.count)
-            chunks = [list(range(i, min(i + _CHUNK, job.count))) for i in range(0, job.count, _CHUNK)]
+            chunks = [list(range(i, min(i + _CHUNK, job.count)))
+                      for i in range(0, job.count, _CHUNK)]
             results: list[dict] = []
             for chunk in executor.map(_generate_chunk, [str(root)] * len(chunks),
                                       [job] * len(chunks), [seed] * len(chunks), chunks):
                 results.extend(chunk)
                 progress.advance(len(chunk))
-            _remove_extra_boards(root / job.config / job.split, {r["board_id"] for r in results})
+            _remove_extra_boards(split_dir(root, job.config, job.split),
+                                 {r["board_id"] for r in results})
             entries[(job.config, job.split)] = results
             summary.boards += len(results)
             summary.written += sum(r["written"] for r in results)
             summary.unchanged += sum(not r["written"] for r in results)
-            info = configs[job.config]
-            if info.connector_version is not None:
-                arrays = connector_arrays([r["board_id"] for r in results],
-                                          [r["cells"] for r in results],
-                                          job.generator.params.grid, info.connector_version)
-                write_atomic(root / job.config / f"{job.split}.npz", npz_bytes(arrays))
-    _check_in_kicad(root, jobs, entries, workers, summary, task_timeout)
+            if isinstance(job.generator, SplitArrays):
+                data = job.generator.split_arrays([r["board_id"] for r in results],
+                                                  [r["array_row"] for r in results])
+                write_atomic(arrays_path(root, job.config, job.split), data)
+    _check_in_kicad(root, jobs, configs, entries, workers, summary, task_timeout)
     summary.seconds = time.perf_counter() - started
+    if summary.engine_failures:
+        board, reason = summary.engine_failures[0]
+        more = len(summary.engine_failures) - 1
+        raise EngineError(reason + (f" (and {more} more boards)" if more else ""), board=board)
     if summary.failures:
         raise ValidationError(
             f"{len(summary.failures)} board(s) failed the KiCad check; the set is left "
@@ -244,7 +256,8 @@ def _remove_extra_boards(split_dir: Path, keep: set[str]) -> None:
                 shutil.rmtree(child)
 
 
-def _check_in_kicad(root: Path, jobs: list[SplitJob], entries, workers: int,
+def _check_in_kicad(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
+                    entries, workers: int,
                     summary: BuildSummary, task_timeout: float) -> None:
     checks = _CheckLog(root)
     todo = []  # (relative board path, sha, expected unconnected, description)
@@ -252,12 +265,11 @@ def _check_in_kicad(root: Path, jobs: list[SplitJob], entries, workers: int,
         by_index = {r["index"]: r for r in entries[(job.config, job.split)]}
         for index in job.check_indices:
             entry = by_index[index]
-            rel_dir = f"{job.config}/{job.split}/{entry['board_id']}"
             targets = [(BOARD_FILE, entry["missing_connections"])]
             if REFERENCE_FILE in entry["files"]:
                 targets.append((REFERENCE_FILE, 0))  # a reference routing connects everything
             for name, expected in targets:
-                rel = f"{rel_dir}/{name}"
+                rel = board_relpath(job.config, job.split, entry["board_id"], name)
                 if (rel, entry["files"][name]) in checks.done:
                     summary.check_skipped += 1
                 else:
@@ -272,12 +284,12 @@ def _check_in_kicad(root: Path, jobs: list[SplitJob], entries, workers: int,
             for outcome in pool.map("pcbdata.kicad.basics:drc", args):
                 rel, sha, expected, job = todo[outcome.index]
                 progress.advance()
-                if outcome.ok:
-                    problem = check_problem(DrcReport.from_dict(outcome.value), expected)
-                else:
-                    problem = f"KiCad could not check it: {outcome.error}"
+                if not outcome.ok:
+                    summary.engine_failures.append((rel, outcome.error))
+                    continue
+                problem = check_problem(DrcReport.from_dict(outcome.value), expected)
                 if problem:
-                    params = json.dumps(job.generator.params.as_dict(), sort_keys=True)
+                    params = json.dumps(configs[job.config].parameters, sort_keys=True)
                     summary.failures.append(f"{rel}: {problem} (parameters {params})")
                 else:
                     checks.add(rel, sha)
@@ -294,9 +306,21 @@ def _drc_args(root: Path, rel: str) -> tuple:
     return (str(path), str(project), str(rules) if rules.exists() else None)
 
 
-def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo], entries) -> None:
-    from pcbdata.kicad import kicad_version
+def _kicad_version(required: bool) -> str:
+    """KiCad's version for the manifest. A build that checked nothing (`--no-check`) needs no
+    KiCad: without one it records "unknown" instead of failing."""
+    from pcbdata.kicad import KicadError, kicad_version
 
+    try:
+        return kicad_version()
+    except KicadError as exc:
+        if required:
+            raise EngineError(f"cannot ask KiCad its version: {exc}") from None
+        return "unknown"
+
+
+def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
+                    entries) -> None:
     built: dict[str, dict] = {}
     for job in jobs:
         info = configs[job.config]
@@ -309,11 +333,13 @@ def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigI
         for entry in sorted(entries[(job.config, job.split)], key=lambda e: e["board_id"]):
             boards[entry["board_id"]] = {"files": entry["files"], **entry["facts"]}
         split = {"count": job.count, "kicad_checked": len(job.check_indices), "boards": boards}
-        if info.connector_version is not None:
-            npz = root / job.config / f"{job.split}.npz"
-            split["arrays"] = {npz.name: sha256_bytes(npz.read_bytes())}
+        if isinstance(job.generator, SplitArrays):
+            npz = arrays_path(root, job.config, job.split)
+            split["arrays"] = {arrays_name(job.split): sha256_bytes(npz.read_bytes())}
         config["splits"][job.split] = split
     _keep_other_splits(root, built)
-    base = {"format": FORMAT, "package_version": __version__, "kicad_version": kicad_version()}
+    checked = any(job.check_indices for job in jobs)
+    base = {"format": FORMAT, "package_version": __version__,
+            "kicad_version": _kicad_version(required=checked)}
     manifest = merge_configs(root, base, built)
     write_manifest(root, manifest)

@@ -16,7 +16,9 @@ def write_board(folder: Path, board) -> Path:
 
 
 def _head(node) -> str | None:
-    return node[0].value() if isinstance(node, list) and node and isinstance(node[0], sexpdata.Symbol) else None
+    if isinstance(node, list) and node and isinstance(node[0], sexpdata.Symbol):
+        return node[0].value()
+    return None
 
 
 def _child(node, name: str):
@@ -47,4 +49,5 @@ def pads_in_file(path: Path) -> list[dict]:
 def outline_in_file(path: Path) -> tuple[tuple[float, float], tuple[float, float], str]:
     rect = next(n for n in parse_board(path) if _head(n) == "gr_rect")
     start, end = _child(rect, "start")[1:3], _child(rect, "end")[1:3]
-    return (float(start[0]), float(start[1])), (float(end[0]), float(end[1])), _child(rect, "layer")[1]
+    layer = _child(rect, "layer")[1]
+    return (float(start[0]), float(start[1])), (float(end[0]), float(end[1])), layer

@@ -21,7 +21,8 @@ def test_d2_levels_share_one_stream_per_board_index():
     a, b = default.generate(0, "test", 3).board, hard.generate(0, "test", 3).board
     lo_a, hi_a = default.params.width_mm
     lo_b, hi_b = hard.params.width_mm
-    assert (a.width / 1e6 - lo_a) / (hi_a - lo_a) == pytest.approx((b.width / 1e6 - lo_b) / (hi_b - lo_b), abs=1e-4)
+    fraction_b = (b.width / 1e6 - lo_b) / (hi_b - lo_b)
+    assert (a.width / 1e6 - lo_a) / (hi_a - lo_a) == pytest.approx(fraction_b, abs=1e-4)
     assert "shared by every level" in get_config("d2-hard").seed_coupling
 
 
@@ -32,3 +33,37 @@ def test_any_d1_grid_resolves_and_unknown_names_suggest():
         get_config("d2-hardd")
     with pytest.raises(UserError, match="curated"):
         get_config("d3-a").generator()
+
+
+def test_every_synthetic_config_makes_a_generator_of_the_protocol():
+    from pcbdata.generators import Generator, SplitArrays
+
+    for spec in registry().values():
+        if not spec.synthetic:
+            continue
+        generator = spec.generator()
+        assert isinstance(generator, Generator) and generator.family == spec.family
+        assert isinstance(generator, SplitArrays) == (spec.family == "d1")
+        assert set(spec.sizes) == set(spec.splits) and spec.seed is not None
+
+
+def test_a_level_with_overrides_is_a_custom_config_generated_from_its_parameters():
+    from pcbdata.configs import d2_config
+
+    spec = d2_config("hard", {"min_pad_spacing_mm": 3.6})
+    assert spec.name.startswith("d2-hard-custom-") and len(spec.name) == len("d2-hard-custom-") + 8
+    assert spec.parameters["min_pad_spacing_mm"] == 3.6
+    assert spec.manifest["overrides"] == {"min_pad_spacing_mm": 3.6}
+    assert spec.generator().params.min_pad_spacing_mm == 3.6
+    assert d2_config("hard", {"min_pad_spacing_mm": 3.6}).name == spec.name
+    assert d2_config("hard").name == "d2-hard"
+
+
+def test_names_are_ordered_by_family_then_grid():
+    from pcbdata.configs import family_of, order_key
+
+    names = ["d3-b", "d1-g500", "x", "d2-hard", "d1-g50-random-walk", "d1-g50", "d2", "d3-a"]
+    assert sorted(names, key=order_key) == ["d2", "d2-hard", "d1-g50", "d1-g50-random-walk",
+                                            "d1-g500", "d3-a", "d3-b", "x"]
+    assert [family_of(n) for n in ("d1-g7", "d2-hard-custom-0123abcd", "d3-c", "x")] == [
+        "d1", "d2", "d3", None]

@@ -5,10 +5,12 @@ from tests.conftest import REPO_ROOT
 
 
 def test_every_subpackage_is_listed_in_pyproject():
-    listed = set(tomllib.loads((REPO_ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]["packages"])
+    pyproject = tomllib.loads((REPO_ROOT / "pyproject.toml").read_text())
+    listed = set(pyproject["tool"]["setuptools"]["packages"])
     on_disk = {".".join(p.parent.relative_to(REPO_ROOT).parts)
                for p in (REPO_ROOT / "pcbdata").rglob("__init__.py")}
-    assert on_disk <= listed, f"add to pyproject [tool.setuptools] packages: {sorted(on_disk - listed)}"
+    missing = sorted(on_disk - listed)
+    assert not missing, f"add to pyproject [tool.setuptools] packages: {missing}"
 
 
 def test_presets_are_readable_as_package_data():

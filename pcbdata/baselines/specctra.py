@@ -46,7 +46,8 @@ def freeroute_version() -> str:
         return "unknown"
 
 
-def router_command(router: str, router_cmd: str | None, rollout: int) -> tuple[list[str], bool, str]:
+def router_command(router: str, router_cmd: str | None,
+                   rollout: int) -> tuple[list[str], bool, str]:
     """(argv with {dsn}/{ses} placeholders, whether to apply the freeroute work-arounds, label)."""
     if router_cmd:
         argv = shlex.split(router_cmd)

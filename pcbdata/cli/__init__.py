@@ -3,6 +3,8 @@
 A verb module in this package defines `VERB` (its name), `HELP` (one line) and
 `register(parser)` which adds its arguments and `parser.set_defaults(run=function)`;
 `run(args)` returns the exit code. `build` has one module per family (`build_<family>.py`).
+Verb modules are thin: they parse, call one library function and print its summary; the
+errors of `pcbdata.errors` become one line and an exit code (2 bad input, 3 KiCad failure).
 """
 from __future__ import annotations
 
@@ -12,10 +14,12 @@ import pkgutil
 import sys
 
 from pcbdata import __version__
-from pcbdata.errors import UserError
+from pcbdata.errors import EngineError, PcbdataError, one_line
+from pcbdata.kicad.pool import KicadError
 
 
-def _verb_modules(prefix: str = ""):
+def verb_modules(prefix: str = ""):
+    """The verb modules (or, with `prefix="build_"`, the build families), discovered."""
     names = sorted(m.name for m in pkgutil.iter_modules(__path__))
     for name in names:
         if name.startswith("_") or (prefix and not name.startswith(prefix)):
@@ -32,7 +36,7 @@ def make_parser() -> argparse.ArgumentParser:
         prog="pcbdata", description="Board sets, curation and scoring for PCBWorld-Bench.")
     parser.add_argument("--version", action="version", version=f"pcbdata {__version__}")
     verbs = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
-    for module in _verb_modules():
+    for module in verb_modules():
         sub = verbs.add_parser(module.VERB, help=module.HELP, description=module.HELP)
         module.register(sub)
     return parser
@@ -43,9 +47,12 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.run(args) or 0)
-    except UserError as exc:
-        print(f"pcbdata: error: {exc}", file=sys.stderr)
-        return 2
+    except PcbdataError as exc:
+        print(f"pcbdata: {exc.label}: {exc.message()}", file=sys.stderr)
+        return exc.exit_code
+    except KicadError as exc:  # a pool task that failed; the pool names no board
+        print(f"pcbdata: {EngineError.label}: {one_line(str(exc))}", file=sys.stderr)
+        return EngineError.exit_code
     except KeyboardInterrupt:
         print("pcbdata: interrupted; run the same command again to resume", file=sys.stderr)
         return 130

@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import os
 
+from pcbdata.configs import SYNTHETIC_SPLITS as SPLITS
 from pcbdata.errors import UserError
-from pcbdata.generators.base import SPLITS
 
 
 def add_common(parser) -> None:
@@ -12,7 +12,8 @@ def add_common(parser) -> None:
     parser.add_argument("--splits", default="train,validation,test", metavar="LIST",
                         help="comma-separated splits among train, validation, test (default: all)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, metavar="N",
-                        help="worker processes for generation and KiCad checks (default: all cores)")
+                        help="worker processes for generation and KiCad checks "
+                             "(default: all cores)")
     parser.add_argument("--seed", type=int, default=None,
                         help="base seed (default: the preset's seed)")
     parser.add_argument("--count", type=int, default=None, metavar="N",
@@ -34,37 +35,10 @@ def parse_splits(text: str) -> list[str]:
     return [s for s in SPLITS if s in splits]
 
 
-def split_sizes(args, preset_sizes: dict[str, int]) -> dict[str, int]:
-    if args.count is not None and args.count < 1:
-        raise UserError(f"--count must be >= 1, got {args.count}")
-    if args.workers < 1:
-        raise UserError(f"--workers must be >= 1, got {args.workers}")
-    return {split: args.count or preset_sizes[split] for split in parse_splits(args.splits)}
+def options(args):
+    """The parsed common options as `pcbdata.builders.SyntheticOptions`."""
+    from pcbdata.builders import SyntheticOptions
 
-
-def checked_indices(args, split: str, count: int) -> list[int]:
-    from pcbdata.synthetic_build import check_sample
-
-    if args.no_check:
-        return []
-    return check_sample(count, args.check_train if split == "train" else None)
-
-
-def run_build(args, jobs, configs) -> int:
-    import sys
-
-    from pcbdata.errors import ValidationError
-    from pcbdata.synthetic_build import build_synthetic
-
-    names = ", ".join(sorted(configs))
-    print(f"pcbdata build: {names} -> {args.out} ({args.workers} workers)", file=sys.stderr)
-    try:
-        summary = build_synthetic(args.out, jobs, configs, workers=args.workers)
-    except ValidationError as exc:
-        print(f"pcbdata: build failed: {exc}", file=sys.stderr)
-        return 1
-    from pcbdata.publish import publish_set
-
-    publish_set(args.out, list(configs))
-    print(f"done: {summary.line()}")
-    return 0
+    return SyntheticOptions(splits=parse_splits(args.splits), seed=args.seed, count=args.count,
+                            check_train=args.check_train, check=not args.no_check,
+                            workers=args.workers)

@@ -6,9 +6,9 @@ HELP = "build a board set (d1, d2 or d3) into a folder"
 
 
 def register(parser) -> None:
-    from pcbdata.cli import _verb_modules
+    from pcbdata.cli import verb_modules
 
     families = parser.add_subparsers(dest="family", metavar="FAMILY", required=True)
-    for module in _verb_modules(prefix="build_"):
+    for module in verb_modules(prefix="build_"):
         sub = families.add_parser(module.FAMILY, help=module.HELP, description=module.HELP)
         module.register(sub)

@@ -27,29 +27,16 @@ def parse_grids(text: str, preset_grids) -> list[int]:
         try:
             grids.append(int(part))
         except ValueError:
-            raise UserError(f"--grid {text!r}: {part.strip()!r} is not an integer grid size or 'all'") from None
+            raise UserError(f"--grid {text!r}: {part.strip()!r} is not an integer grid size "
+                            f"or 'all'") from None
     return grids
 
 
 def run(args) -> int:
-    from pcbdata.generators import D1Generator, D1Params
+    from pcbdata.builders import build_d1
     from pcbdata.presets import d1_preset
-    from pcbdata.synthetic_build import ConfigInfo, SplitJob
 
-    preset = d1_preset()
-    sizes = common.split_sizes(args, preset.splits)
-    placement = args.placement or preset.placement
-    seed = preset.seed if args.seed is None else args.seed
-    jobs, configs = [], {}
-    for grid in parse_grids(args.grid, preset.grid_sizes):
-        params = D1Params(grid=grid, placement=placement, n_nets=preset.n_nets)
-        config = f"d1-g{grid}" + ("" if placement == "uniform" else f"-{placement}")
-        generator = D1Generator(params)
-        configs[config] = ConfigInfo(family="d1", set_version=preset.version, seed=seed,
-                                     parameters=params.as_dict(),
-                                     connector_version=preset.connector_version,
-                                     extra={"connector_version": preset.connector_version})
-        for split, count in sizes.items():
-            jobs.append(SplitJob(config, split, count, generator,
-                                 common.checked_indices(args, split, count)))
-    return common.run_build(args, jobs, configs)
+    summary = build_d1(args.out, parse_grids(args.grid, d1_preset().grid_sizes), args.placement,
+                       common.options(args))
+    print(f"done: {summary.line()}")
+    return 0

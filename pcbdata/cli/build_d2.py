@@ -1,4 +1,4 @@
-"""`pcbdata build d2`: synthetic gridless two-layer boards at a difficulty level (SPEC section 2)."""
+"""`pcbdata build d2`: synthetic gridless two-layer boards at a difficulty level (SPEC 2)."""
 from __future__ import annotations
 
 from pcbdata.cli import _build_options as common
@@ -9,8 +9,8 @@ HELP = "D2 gridless two-layer boards with multi-pin nets, at the benchmark's or 
 
 def register(parser) -> None:
     parser.add_argument("--level", default="default", metavar="NAME",
-                        help="difficulty level from pcbdata/resources/presets/d2_levels.toml (default: the "
-                             "benchmark's); `pcbdata levels` lists them")
+                        help="difficulty level from pcbdata/resources/presets/d2_levels.toml "
+                             "(default: the benchmark's); `pcbdata levels` lists them")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         dest="overrides",
                         help="override one parameter (repeatable), TOML values: "
@@ -21,20 +21,10 @@ def register(parser) -> None:
 
 
 def run(args) -> int:
-    from pcbdata.generators import D2Generator
-    from pcbdata.presets import d2_level, parse_override
-    from pcbdata.synthetic_build import ConfigInfo, SplitJob
+    from pcbdata.builders import build_d2
+    from pcbdata.presets import parse_override
 
     overrides = dict(parse_override(text) for text in args.overrides)
-    level = d2_level(args.level, overrides)
-    sizes = common.split_sizes(args, level.splits)
-    seed = level.seed if args.seed is None else args.seed
-    generator = D2Generator(level.params)
-    config = level.config_name
-    configs = {config: ConfigInfo(
-        family="d2", set_version=level.version, seed=seed, parameters=level.params.as_dict(),
-        extra={"level": level.name, "level_description": level.description,
-               "overrides": level.overrides})}
-    jobs = [SplitJob(config, split, count, generator, common.checked_indices(args, split, count))
-            for split, count in sizes.items()]
-    return common.run_build(args, jobs, configs)
+    summary = build_d2(args.out, args.level, overrides, common.options(args))
+    print(f"done: {summary.line()}")
+    return 0

@@ -1,8 +1,6 @@
 """`pcbdata build d3`: rebuild the curated real-board set from a PCBench checkout."""
 from __future__ import annotations
 
-import os
-
 FAMILY = "d3"
 HELP = "curate the D3 real-board set (tiers D3-A/B/C) from a PCBench checkout"
 
@@ -14,7 +12,8 @@ def register(parser) -> None:
     parser.add_argument("--workers", type=int, default=None, metavar="N",
                         help="KiCad worker processes (default: number of CPUs)")
     parser.add_argument("--recipe", default=None, metavar="PATH",
-                        help="recipe TOML (default: the packaged pcbdata/resources/recipes/d3.toml)")
+                        help="recipe TOML (default: the packaged "
+                             "pcbdata/resources/recipes/d3.toml)")
     parser.add_argument("--tasks-per-worker", type=int, default=20, metavar="N",
                         help="recycle a KiCad worker after N boards (memory; default 20)")
     parser.add_argument("--quiet", action="store_true", help="only print the summary")
@@ -24,26 +23,13 @@ def register(parser) -> None:
 def run(args) -> int:
     import sys
 
-    from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
-    from pcbdata.errors import UserError
+    from pcbdata.builders import build_d3
 
-    if not os.path.isdir(args.source):
-        raise UserError(f"{args.source}: no such folder")
-    if args.workers is not None and args.workers < 1:
-        raise UserError("--workers must be at least 1")
-    if args.tasks_per_worker < 1:
-        raise UserError("--tasks-per-worker must be at least 1")
-    recipe = load_recipe(args.recipe)
     log = (lambda line: None if not line.startswith("d3:") else
            print(line, file=sys.stderr, flush=True)) if args.quiet else None
-    summary = build(args.source, args.out, recipe, workers=args.workers or os.cpu_count() or 1,
-                    log=log, tasks_per_worker=args.tasks_per_worker)
-    from pcbdata.publish import publish_set
-
-    publish_set(args.out, sorted(summary["tiers"]))
-    fates = summary["fates"]
-    print("fates: " + ", ".join(f"{k}={v}" for k, v in fates.items()))
+    summary = build_d3(args.source, args.out, args.recipe, workers=args.workers,
+                       tasks_per_worker=args.tasks_per_worker, log=log)
+    print("fates: " + ", ".join(f"{k}={v}" for k, v in summary["fates"].items()))
     print("tiers: " + ", ".join(f"{c}={n['full']} test={n['test']}"
                                 for c, n in summary["tiers"].items()))
     print(f"wrote {args.out} in {summary['wall_seconds']} s")

@@ -13,13 +13,12 @@ def register(parser) -> None:
 def run(args) -> int:
     import json
 
-    from pcbdata.presets import d2_level, d2_levels
+    from pcbdata.configs import registry
 
-    levels = sorted(d2_levels(), key=lambda name: d2_levels()[name]["rank"])
+    levels = [spec for spec in registry().values() if spec.family == "d2"]  # in rank order
     if args.json:
-        print(json.dumps({name: d2_level(name).params.as_dict() for name in levels}, indent=1))
+        print(json.dumps({spec.level: spec.parameters for spec in levels}, indent=1))
         return 0
-    for name in levels:
-        level = d2_level(name)
-        print(f"{level.rank}  {name:<10} {level.config_name:<11} {level.description}")
+    for spec in levels:
+        print(f"{spec.rank}  {spec.level:<10} {spec.name:<11} {spec.description}")
     return 0

@@ -10,7 +10,7 @@ UNKNOWN = "NOASSERTION"
 
 def load_github_licences(source: str | Path, recipe) -> dict[str, dict]:
     """Repository URL -> {"spdx_id", "name", "owner"} from the GitHub search results."""
-    folder = Path(source) / recipe["source"].get("github_meta_dir", "github_meta")
+    folder = Path(source) / recipe.source.github_meta_dir
     repos: dict[str, dict] = {}
     if not folder.is_dir():
         return repos
@@ -45,8 +45,8 @@ def _from_metadata(value, names: dict[str, str]) -> tuple[str, str]:
 
 
 def attribute(name: str, metadata: dict | None, github: dict[str, dict], recipe) -> dict:
-    lic_cfg = recipe["licences"]
-    names = lic_cfg.get("names", {})
+    lic_cfg = recipe.licences
+    names = lic_cfg.names
     meta = metadata or {}
     repo = str(meta.get("source") or "").rstrip("/")
     gh = github.get(repo, {})
@@ -65,6 +65,6 @@ def attribute(name: str, metadata: dict | None, github: dict[str, dict], recipe)
         "licence": spdx or UNKNOWN,
         "licence_text": raw,
         "licence_from": origin or "unknown",
-        "redistributable": bool(spdx) and spdx in set(lic_cfg["redistributable"]),
-        "collection_licence": recipe["source"].get("collection_licence", "MIT"),
+        "redistributable": bool(spdx) and spdx in set(lic_cfg.redistributable),
+        "collection_licence": recipe.source.collection_licence,
     }

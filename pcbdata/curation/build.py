@@ -14,66 +14,69 @@ is a measurement.
 """
 from __future__ import annotations
 
-import csv
-import hashlib
-import io
 import json
 import shutil
 import sys
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
 from pcbdata import __version__
+from pcbdata.configs import D3_SPLITS, D3_TIERS
 from pcbdata.curation import attribution as attr
 from pcbdata.curation import corpus
-from pcbdata.curation.picks import COLUMNS, CONFIGS, Row, assign_tiers, evaluation_subsets, \
-    number_rows
-from pcbdata.curation.recipe import Recipe
+from pcbdata.curation.picks import COLUMNS, Row, assign_tiers, evaluation_subsets, number_rows
+from pcbdata.curation.recipe import KeepCriteria, Recipe
+from pcbdata.errors import EngineError, UserError
+from pcbdata.fsutil import remove_stale_temps, write_atomic, write_dir_atomic
+from pcbdata.hashing import sha256_bytes, sha256_text
 from pcbdata.kicad.drc_report import DrcReport
-from pcbdata.fsutil import remove_stale_temps, sha256_bytes, write_atomic, write_dir_atomic
-from pcbdata.manifest import FORMAT, manifest_path, merge_configs, read_manifest, \
-    write_manifest
+from pcbdata.kicad.pool import KicadError, KicadPool, Outcome
+from pcbdata.manifest import FORMAT, d3_facts, merge_configs, read_manifest, write_manifest
+from pcbdata.textio import canonical_json, csv_text
+from pcbdata.tree import (
+    ATTRIBUTION_CSV,
+    ATTRIBUTION_JSON,
+    BOARD_FILE,
+    CHARACTERISTICS_CSV,
+    CURATION_REPORT_CSV,
+    CURATION_REPORT_JSON,
+    D3_STATE_DIR,
+    PCBENCH_LICENCE,
+    PROJECT_FILE,
+    REFERENCE_FILE,
+    board_dir,
+    folder_holds,
+    manifest_path,
+)
 
-STATE_DIR = ".d3-state"
-BOARD_FILES = ("board.kicad_pcb", "board.kicad_pro", "reference.kicad_pcb")
-SPLITS = ("test", "full")
+STATE_DIR = D3_STATE_DIR
+BOARD_FILES = (BOARD_FILE, PROJECT_FILE, REFERENCE_FILE)
 REPORT_COLUMNS = ["name", "fate", "reason", "errors", "error_types", "unconnected",
                   "board_identical", "board_id", "source_board_sha256", "seconds"]
+ATTRIBUTION_COLUMNS = ["board_id", "name", "tier", "source_repository", "author", "licence",
+                       "licence_from", "redistributable", "collection_licence", "licence_text"]
 TASK = "pcbdata.kicad.upgrade:process_board"
+
+Log = Callable[[str], None]
 
 
 def board_seed(base: int, name: str) -> int:
-    return (int(base) ^ int(hashlib.sha256(name.encode("utf-8")).hexdigest()[:8], 16)) \
-        & 0xFFFFFFFF
+    return (int(base) ^ int(sha256_text(name)[:8], 16)) & 0xFFFFFFFF
 
 
 def state_key(board: corpus.SourceBoard, recipe: Recipe, kicad_version: str) -> str:
     text = f"{board.name}\0{board.board_sha256}\0{recipe.sha256}\0{kicad_version}"
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:32]
+    return sha256_text(text)[:32]
 
 
 def drc_counts(report: DrcReport) -> tuple[dict[str, int], int]:
     """Error-severity violations per type and unconnected items (excluded markers left out)."""
-    types: dict[str, int] = {}
-    unconnected = 0
-    for v in report.violations:
-        if v.severity == "excluded":
-            continue
-        if v.section == "unconnected":
-            unconnected += 1
-        elif v.severity == "error":
-            types[v.type] = types.get(v.type, 0) + 1
-    return types, unconnected
+    return report.error_counts()
 
 
-def is_kept(report: DrcReport, keep: dict) -> bool:
-    """The revalidation rule of the recipe's `[keep]` table."""
-    types, unconnected = drc_counts(report)
-    return sum(types.values()) <= int(keep["max_errors"]) and unconnected <= int(keep["max_unconnected"])
-
-
-def judge(result: dict, keep: dict) -> dict:
+def judge(result: dict, keep: KeepCriteria) -> dict:
     """The fate of one engine result: plain data for the report and the state."""
     stage = result.get("stage")
     out = {"fate": "", "reason": result.get("error", ""), "errors": 0, "error_types": {},
@@ -93,10 +96,10 @@ def judge(result: dict, keep: dict) -> dict:
     bare = result.get("bare_facts", {})
     if bare.get("tracks") or bare.get("vias"):
         out["fate"], out["reason"] = corpus.UPGRADE_FAILURE, "bare board still has tracks or vias"
-    elif out["errors"] > int(keep["max_errors"]):
+    elif out["errors"] > keep.max_errors:
         out["fate"] = corpus.DRC_FAILURE
         out["reason"] = ", ".join(f"{k}={n}" for k, n in out["error_types"].items())
-    elif unconnected > int(keep["max_unconnected"]):
+    elif unconnected > keep.max_unconnected:
         out["fate"] = corpus.NOT_CONNECTED
         out["reason"] = f"{unconnected} unconnected items"
     else:
@@ -126,23 +129,8 @@ class StateStore:
 
     def put(self, key: str, state: dict, files: dict[str, bytes] | None) -> None:
         if files:
-            write_dir_atomic(self.root / key, files)
-        write_atomic(self.root / f"{key}.json",
-                     json.dumps(state, indent=1, sort_keys=True) + "\n")
-
-
-def _csv(rows: list[dict], columns: list[str]) -> str:
-    buffer = io.StringIO()
-    writer = csv.DictWriter(buffer, fieldnames=columns, lineterminator="\n",
-                            extrasaction="ignore")
-    writer.writeheader()
-    for row in rows:
-        writer.writerow(row)
-    return buffer.getvalue()
-
-
-def _json(data) -> str:
-    return json.dumps(data, indent=1, sort_keys=True, ensure_ascii=False) + "\n"
+            write_dir_atomic(self.root / key, dict[str, bytes | str](files))
+        write_atomic(self.root / f"{key}.json", canonical_json(state))
 
 
 def _write_if_changed(path: Path, data: bytes | str) -> None:
@@ -152,33 +140,32 @@ def _write_if_changed(path: Path, data: bytes | str) -> None:
     write_atomic(path, raw)
 
 
-def _engine_kicad_version(pool) -> str:
+def _engine_kicad_version(pool: KicadPool) -> str:
     """KiCad's version from a worker (it starts one), under a limit of at least 2 minutes
     whatever the per-board limit."""
-    from pcbdata.kicad.pool import KicadError
-    from pcbdata.errors import UserError
-
     saved = pool.task_timeout
     pool.task_timeout = max(float(saved), 120.0)
     try:
-        return str(pool.call("pcbdata.kicad.upgrade:kicad_version"))
+        return str(pool.call("pcbdata.kicad.basics:kicad_version"))
     except KicadError as exc:
-        raise UserError(f"cannot start KiCad (pcbnew) in a worker: {exc}") from None
+        raise EngineError(f"cannot start KiCad (pcbnew) in a worker: {exc}") from None
     finally:
         pool.task_timeout = saved
 
 
+def _stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
 def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
-          log: Callable[[str], None] | None = None, pool=None,
+          log: Log | None = None, pool: KicadPool | None = None,
           tasks_per_worker: int = 20) -> dict:
     """Builds the D3 set of `source` into `out`; returns the summary (fate and tier counts).
 
     `tasks_per_worker`: KiCad keeps memory between boards (tens of MB each), so workers are
     recycled after this many boards; it does not change the output.
     """
-    from pcbdata.kicad.pool import KicadPool
-
-    log = log or (lambda line: print(line, file=sys.stderr, flush=True))
+    log = log or _stderr
     source, out = Path(source), Path(out)
     out.mkdir(parents=True, exist_ok=True)
     remove_stale_temps(out)
@@ -186,65 +173,23 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
 
     boards = corpus.scan(source, recipe)
     if not boards:
-        from pcbdata.errors import UserError
-        raise UserError(f"{source}: no board folders under {recipe['source']['boards_dir']}/")
+        raise UserError(f"{source}: no board folders under {recipe.source.boards_dir}/")
     log(f"d3: {len(boards)} board folders in {source}; recipe {recipe.version} "
         f"({recipe.sha256[:12]})")
     _retract_manifest(out)
 
-    engine = recipe["engine"]
     own_pool = pool is None
-    if own_pool:
-        pool = KicadPool(workers=workers, task_timeout=float(engine["task_timeout_s"]),
-                          tasks_per_worker=tasks_per_worker)
+    if pool is None:
+        pool = KicadPool(workers=workers, task_timeout=recipe.engine.task_timeout_s,
+                         tasks_per_worker=tasks_per_worker)
     try:
         kicad_version = _engine_kicad_version(pool)
-        wanted = str(engine.get("kicad_version", ""))
+        wanted = recipe.engine.kicad_version
         if wanted and not kicad_version.startswith(wanted):
             log(f"d3: warning: the recipe was made with KiCad {wanted}, this is KiCad "
                 f"{kicad_version}; verdicts may differ (the manifest records the version)")
         store = StateStore(out)
-        states: dict[str, dict] = {}
-        todo = []
-        for b in boards:
-            if b.fate:
-                states[b.name] = {"fate": b.fate, "reason": b.reason, "errors": 0,
-                                  "error_types": {}, "unconnected": 0, "seconds": 0.0}
-                continue
-            key = state_key(b, recipe, kicad_version)
-            cached = store.get(key)
-            if cached is not None:
-                states[b.name] = cached
-            else:
-                todo.append((b, key))
-        log(f"d3: {len(boards) - len(todo)} boards known (resumed or decided without KiCad), "
-            f"{len(todo)} to process with {pool.workers} workers")
-        args = [(str(b.board_path), board_seed(engine["uuid_seed"], b.name), recipe["compat"],
-                 recipe["keep"]) for b, _ in todo]
-        done = 0
-        for outcome in pool.map(TASK, args):
-            b, key = todo[outcome.index]
-            done += 1
-            if outcome.ok:
-                verdict = judge(outcome.value, recipe["keep"])
-                value = outcome.value
-            else:
-                verdict = {"fate": corpus.ENGINE_FAILURE, "reason": outcome.error, "errors": 0,
-                           "error_types": {}, "unconnected": 0}
-                value = {}
-            state = {**verdict, "seconds": round(outcome.seconds, 3),
-                     "facts": value.get("facts", {}), "bare_facts": value.get("bare_facts", {}),
-                     "compat": value.get("compat", {}), "timings": value.get("timings", {}),
-                     "uuids_fixed": value.get("uuids_fixed", 0),
-                     "key": key, "name": b.name}
-            files = value.get("files") if verdict["fate"] == corpus.KEPT else None
-            if verdict["fate"] != corpus.ENGINE_FAILURE:  # a crash or time limit is retried
-                store.put(key, state, files)               # by the next run
-
-            states[b.name] = state
-            log(f"[{done}/{len(todo)}] {b.name}: {verdict['fate']}"
-                f"{' (' + verdict['reason'] + ')' if verdict['reason'] else ''} "
-                f"{outcome.seconds:.1f} s")
+        states = _process(boards, recipe, kicad_version, store, pool, log)
     finally:
         if own_pool:
             pool.close()
@@ -258,6 +203,54 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
     return summary
 
 
+def _process(boards: list[corpus.SourceBoard], recipe: Recipe, kicad_version: str,
+             store: StateStore, pool: KicadPool, log: Log) -> dict[str, dict]:
+    """The state of every board: known without KiCad, resumed, or made by an engine task."""
+    states: dict[str, dict] = {}
+    todo = []
+    for b in boards:
+        if b.fate:
+            states[b.name] = {"fate": b.fate, "reason": b.reason, "errors": 0,
+                              "error_types": {}, "unconnected": 0, "seconds": 0.0}
+            continue
+        key = state_key(b, recipe, kicad_version)
+        cached = store.get(key)
+        if cached is not None:
+            states[b.name] = cached
+        else:
+            todo.append((b, key))
+    log(f"d3: {len(boards) - len(todo)} boards known (resumed or decided without KiCad), "
+        f"{len(todo)} to process with {pool.workers} workers")
+    compat, keep = recipe.compat.as_table(), recipe.keep.as_table()
+    args = [(str(b.board_path), board_seed(recipe.engine.uuid_seed, b.name), compat, keep)
+            for b, _ in todo]
+    for done, outcome in enumerate(pool.map(TASK, args), start=1):
+        b, key = todo[outcome.index]
+        state, files = _state(outcome, recipe.keep, key, b.name)
+        if state["fate"] != corpus.ENGINE_FAILURE:  # a crash or time limit is retried
+            store.put(key, state, files)              # by the next run
+        states[b.name] = state
+        reason = f" ({state['reason']})" if state["reason"] else ""
+        log(f"[{done}/{len(todo)}] {b.name}: {state['fate']}{reason} {outcome.seconds:.1f} s")
+    return states
+
+
+def _state(outcome: Outcome, keep: KeepCriteria, key: str,
+           name: str) -> tuple[dict, dict[str, bytes] | None]:
+    """The state of one board from its engine outcome, and its files if it is kept."""
+    if outcome.ok:
+        verdict, value = judge(outcome.value, keep), outcome.value
+    else:
+        verdict = {"fate": corpus.ENGINE_FAILURE, "reason": outcome.error, "errors": 0,
+                   "error_types": {}, "unconnected": 0}
+        value = {}
+    state = {**verdict, "seconds": round(outcome.seconds, 3),
+             "facts": value.get("facts", {}), "bare_facts": value.get("bare_facts", {}),
+             "compat": value.get("compat", {}), "timings": value.get("timings", {}),
+             "uuids_fixed": value.get("uuids_fixed", 0), "key": key, "name": name}
+    return state, (value.get("files") if verdict["fate"] == corpus.KEPT else None)
+
+
 def _retract_manifest(out: Path) -> None:
     """While a build runs the folder holds no complete D3 set: drop D3 configs from it."""
     if not manifest_path(out).is_file():
@@ -267,7 +260,7 @@ def _retract_manifest(out: Path) -> None:
     except Exception:  # noqa: BLE001 - an unreadable manifest is rewritten at the end anyway
         manifest_path(out).unlink()
         return
-    configs = {k: v for k, v in old.get("configs", {}).items() if k not in CONFIGS.values()}
+    configs = {k: v for k, v in old.get("configs", {}).items() if k not in D3_TIERS.values()}
     if configs != old.get("configs"):
         if configs:
             write_manifest(out, {**old, "configs": configs})
@@ -275,77 +268,128 @@ def _retract_manifest(out: Path) -> None:
             manifest_path(out).unlink()
 
 
-def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
-            states: dict[str, dict], store: StateStore, kicad_version: str) -> dict:
+@dataclass
+class _Curated:
+    """What the kept boards become: the characteristics table, tiers, test subsets."""
+
+    boards: list[corpus.SourceBoard]
+    by_name: dict[str, corpus.SourceBoard]
+    states: dict[str, dict]
+    rows: list[Row]
+    tiers: dict[str, list[Row]]
+    subsets: dict[str, list[Row]]
+    notes: list[dict]
+    attributions: dict[str, dict]
+    snapshot: str
+
+
+def _curate(source: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
+            states: dict[str, dict]) -> _Curated:
     by_name = {b.name: b for b in boards}
     kept = [b for b in boards if states[b.name]["fate"] == corpus.KEPT]
     rows = number_rows([Row(name=b.name, nets=b.nets, pads=b.pads,
                             components=int(states[b.name]["facts"]["components"]),
                             layers=int(states[b.name]["facts"]["copper_layers"]))
                         for b in kept])
-    tiers_cfg = recipe["tiers"]
-    tiers = assign_tiers(rows, int(tiers_cfg["a_size"]), int(tiers_cfg["b_max_pads"]))
+    tiers = assign_tiers(rows, recipe.tiers.a_size, recipe.tiers.b_max_pads)
     subsets, notes = evaluation_subsets(tiers, recipe)
     github = attr.load_github_licences(source, recipe)
     attributions = {r.name: attr.attribute(r.name, by_name[r.name].metadata, github, recipe)
                     for r in rows}
+    return _Curated(boards, by_name, states, rows, tiers, subsets, notes, attributions,
+                    corpus.snapshot_sha256(boards))
 
-    # board trees
+
+def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
+            states: dict[str, dict], store: StateStore, kicad_version: str) -> dict:
+    """Writes the board trees, the tables and the manifest (last); returns the summary."""
+    cur = _curate(source, recipe, boards, states)
+    configs: dict[str, dict] = {}
     expected: set[Path] = set()
-    manifest_configs = {}
-    snapshot = corpus.snapshot_sha256(boards)
-    for tier, config in CONFIGS.items():
+    for tier, config in D3_TIERS.items():
         splits = {}
-        for split in SPLITS:
-            members = subsets[tier] if split == "test" else tiers[tier]
-            entries = {}
-            for r in members:
-                state = states[r.name]
-                files = store.files(state["key"])
-                folder = out / config / split / r.board_id
-                expected.add(folder)
-                if not (folder.is_dir() and all(
-                        (folder / n).is_file() and (folder / n).read_bytes() == files[n]
-                        for n in BOARD_FILES)
-                        and sorted(p.name for p in folder.iterdir()) == sorted(BOARD_FILES)):
-                    write_dir_atomic(folder, files)
-                a = attributions[r.name]
-                entries[r.board_id] = {
-                    "files": {n: sha256_bytes(files[n]) for n in BOARD_FILES},
-                    "name": r.name, "row": r.row, "pads": r.pads, "nets": r.nets,
-                    "components": r.components, "layers": r.layers,
-                    "source_board_sha256": by_name[r.name].board_sha256,
-                    "source_repository": a["source_repository"], "author": a["author"],
-                    "licence": a["licence"], "redistributable": a["redistributable"],
-                    "pcbench_licence": a["collection_licence"],
-                    "compat_board_identical": bool(state["compat"].get("board_identical")),
-                }
+        for split in D3_SPLITS:
+            members = cur.subsets[tier] if split == "test" else cur.tiers[tier]
+            entries = {r.board_id: _write_board(out, config, split, r, cur, store, expected)
+                       for r in members}
             # every board was loaded and DRC-checked by KiCad (count, as for D1/D2)
             splits[split] = {"count": len(entries), "kicad_checked": len(entries),
                              "boards": entries}
-        manifest_configs[config] = {
-            "family": "d3", "set_version": recipe.version, "tier": tier,
-            "recipe": {"name": recipe["recipe"]["name"], "version": recipe.version,
-                       "sha256": recipe.sha256},
-            "recipe_version": recipe.version, "recipe_sha256": recipe.sha256,
-            "parameters": recipe.data,
-            "source": {"upstream": recipe["source"].get("upstream", ""),
-                       "commit": recipe["source"].get("commit", ""),
-                       "snapshot_sha256": snapshot, "boards": len(boards)},
-            "kicad_version": kicad_version,
-            "splits": splits,
-        }
+        configs[config] = _config_entry(recipe, tier, len(boards), cur.snapshot, kicad_version,
+                                        splits)
     _remove_stale_boards(out, expected)
+    summary = _write_tables(source, out, recipe, cur, kicad_version)
+    base = {"format": FORMAT, "package_version": __version__, "kicad_version": kicad_version}
+    write_manifest(out, merge_configs(out, base, configs))
+    return summary
 
-    # tables
+
+def _write_board(out: Path, config: str, split: str, r: Row, cur: _Curated, store: StateStore,
+                 expected: set[Path]) -> dict:
+    """Writes one board folder (unless it already holds the bytes); returns its entry."""
+    state = cur.states[r.name]
+    files = store.files(state["key"])
+    folder = board_dir(out, config, split, r.board_id)
+    expected.add(folder)
+    if not folder_holds(folder, files):
+        write_dir_atomic(folder, dict[str, bytes | str](files))
+    a = cur.attributions[r.name]
+    return {
+        "files": {n: sha256_bytes(files[n]) for n in BOARD_FILES},
+        "name": r.name, "row": r.row,
+        **d3_facts(nets=r.nets, pads=r.pads, components=r.components, layers=r.layers),
+        "source_board_sha256": cur.by_name[r.name].board_sha256,
+        "source_repository": a["source_repository"], "author": a["author"],
+        "licence": a["licence"], "redistributable": a["redistributable"],
+        "pcbench_licence": a["collection_licence"],
+        "compat_board_identical": bool(state["compat"].get("board_identical")),
+    }
+
+
+def _config_entry(recipe: Recipe, tier: str, boards: int, snapshot: str, kicad_version: str,
+                  splits: dict) -> dict:
+    return {
+        "family": "d3", "set_version": recipe.version, "tier": tier,
+        "recipe": {"name": recipe.name, "version": recipe.version, "sha256": recipe.sha256},
+        "recipe_version": recipe.version, "recipe_sha256": recipe.sha256,
+        "parameters": recipe.data,
+        "source": {"upstream": recipe.source.upstream, "commit": recipe.source.commit,
+                   "snapshot_sha256": snapshot, "boards": boards},
+        "kicad_version": kicad_version,
+        "splits": splits,
+    }
+
+
+def _write_tables(source: Path, out: Path, recipe: Recipe, cur: _Curated,
+                  kicad_version: str) -> dict:
+    """characteristics.csv, the curation report, attribution and PCBench's licence notice;
+    returns the summary (fates, tier counts, overrides)."""
     table = [{"board_id": r.board_id, "name": r.name, "nets": r.nets,
               "components": r.components, "pads": r.pads, "layers": r.layers,
-              "tier": r.tier, "in_test": int(r.in_test)} for r in rows]
-    _write_if_changed(out / "characteristics.csv", _csv(table, COLUMNS))
-    board_ids = {r.name: r.board_id for r in rows}
+              "tier": r.tier, "in_test": int(r.in_test)} for r in cur.rows]
+    _write_if_changed(out / CHARACTERISTICS_CSV, csv_text(table, COLUMNS))
+    report = _report_rows(cur)
+    fates = {f: sum(1 for r in report if r["fate"] == f) for f in corpus.FATES}
+    tier_counts = {D3_TIERS[t]: {"full": len(cur.tiers[t]), "test": len(cur.subsets[t])}
+                   for t in cur.tiers}
+    report_csv = [{**r, "error_types": ";".join(f"{k}={n}" for k, n in r["error_types"].items())}
+                  for r in report]
+    _write_if_changed(out / CURATION_REPORT_CSV, csv_text(report_csv, REPORT_COLUMNS))
+    _write_if_changed(out / CURATION_REPORT_JSON, canonical_json({
+        "recipe": {"version": recipe.version, "sha256": recipe.sha256},
+        "kicad_version": kicad_version, "source_snapshot_sha256": cur.snapshot,
+        "fates": fates, "tiers": tier_counts, "overrides": cur.notes, "boards": report}))
+    _write_attribution(source, out, recipe, cur)
+    return {"fates": fates, "tiers": tier_counts, "overrides": cur.notes,
+            "boards": len(cur.boards)}
+
+
+def _report_rows(cur: _Curated) -> list[dict]:
+    """One row per source board: its fate and why, in name order."""
+    board_ids = {r.name: r.board_id for r in cur.rows}
     report = []
-    for b in boards:
-        s = states[b.name]
+    for b in cur.boards:
+        s = cur.states[b.name]
         report.append({
             "name": b.name, "fate": s["fate"], "reason": s.get("reason", ""),
             "errors": s.get("errors", 0), "error_types": s.get("error_types", {}),
@@ -353,41 +397,28 @@ def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceB
             "board_identical": s.get("compat", {}).get("board_identical", ""),
             "board_id": board_ids.get(b.name, ""), "source_board_sha256": b.board_sha256,
             "uuids_fixed": s.get("uuids_fixed", 0), "seconds": s.get("seconds", 0.0)})
-    report_csv = [{**r, "error_types": ";".join(f"{k}={n}" for k, n in r["error_types"].items())}
-                  for r in report]
-    fates = {f: sum(1 for r in report if r["fate"] == f) for f in corpus.FATES}
-    tier_counts = {CONFIGS[t]: {"full": len(tiers[t]), "test": len(subsets[t])} for t in tiers}
-    _write_if_changed(out / "curation_report.csv", _csv(report_csv, REPORT_COLUMNS))
-    _write_if_changed(out / "curation_report.json", _json({
-        "recipe": {"version": recipe.version, "sha256": recipe.sha256},
-        "kicad_version": kicad_version, "source_snapshot_sha256": snapshot,
-        "fates": fates, "tiers": tier_counts, "overrides": notes, "boards": report}))
+    return report
 
-    # attribution
-    attr_rows = [{"board_id": r.board_id, **attributions[r.name], "tier": r.tier}
-                 for r in rows]
-    attr_cols = ["board_id", "name", "tier", "source_repository", "author", "licence",
-                 "licence_from", "redistributable", "collection_licence", "licence_text"]
-    _write_if_changed(out / "attribution.csv", _csv(attr_rows, attr_cols))
-    _write_if_changed(out / "attribution.json", _json({
-        "collection": {"name": "PCBench", "upstream": recipe["source"].get("upstream", ""),
-                       "commit": recipe["source"].get("commit", ""),
-                       "licence": recipe["source"].get("collection_licence", "MIT"),
-                       "notice_file": "LICENSE-PCBench"},
-        "boards": attr_rows}))
-    licence = source / recipe["source"].get("licence_file", "LICENSE")
+
+def _write_attribution(source: Path, out: Path, recipe: Recipe, cur: _Curated) -> None:
+    rows = [{"board_id": r.board_id, **cur.attributions[r.name], "tier": r.tier}
+            for r in cur.rows]
+    _write_if_changed(out / ATTRIBUTION_CSV, csv_text(rows, ATTRIBUTION_COLUMNS))
+    _write_if_changed(out / ATTRIBUTION_JSON, canonical_json({
+        "collection": {"name": "PCBench", "upstream": recipe.source.upstream,
+                       "commit": recipe.source.commit,
+                       "licence": recipe.source.collection_licence,
+                       "notice_file": PCBENCH_LICENCE},
+        "boards": rows}))
+    licence = source / recipe.source.licence_file
     if licence.is_file():
-        _write_if_changed(out / "LICENSE-PCBench", licence.read_bytes())
-
-    base = {"format": FORMAT, "package_version": __version__, "kicad_version": kicad_version}
-    write_manifest(out, merge_configs(out, base, manifest_configs))
-    return {"fates": fates, "tiers": tier_counts, "overrides": notes, "boards": len(boards)}
+        _write_if_changed(out / PCBENCH_LICENCE, licence.read_bytes())
 
 
 def _remove_stale_boards(out: Path, expected: set[Path]) -> None:
     """Board folders of an earlier build that this build does not produce."""
-    for config in CONFIGS.values():
-        for split in SPLITS:
+    for config in D3_TIERS.values():
+        for split in D3_SPLITS:
             folder = out / config / split
             if not folder.is_dir():
                 continue

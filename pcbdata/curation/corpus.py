@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pcbdata.errors import UserError
+from pcbdata.hashing import sha256_file
 
 MISSING_INPUT = "missing_input"
 LOAD_FAILURE = "load_failure"
@@ -37,10 +38,6 @@ class SourceBoard:
     fate: str = ""  # set here only for fates known without KiCad
     reason: str = ""
     notes: list[str] = field(default_factory=list)
-
-
-def _sha(path: Path) -> str:
-    return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
 def read_routing(path: Path) -> tuple[int, int, int]:
@@ -75,25 +72,25 @@ def _read_metadata(path: Path) -> dict | None:
 
 def scan(source: str | Path, recipe) -> list[SourceBoard]:
     """Every board folder of a PCBench checkout, sorted by name."""
-    src = recipe["source"]
-    root = Path(source) / src["boards_dir"]
+    src = recipe.source
+    root = Path(source) / src.boards_dir
     if not root.is_dir():
-        raise UserError(f"{source}: not a PCBench checkout (no {src['boards_dir']}/ folder)")
-    excluded = {o["board"]: o["reason"] for o in recipe.overrides("exclude")}
+        raise UserError(f"{source}: not a PCBench checkout (no {src.boards_dir}/ folder)")
+    excluded = {o.board: o.reason for o in recipe.overrides("exclude")}
     boards = []
     for folder in sorted((p for p in root.iterdir() if p.is_dir()), key=lambda p: p.name):
         board = SourceBoard(name=folder.name, folder=folder,
-                            board_path=folder / src["board_file"])
-        final = folder / src["routing_file"]
-        meta = folder / src["metadata_file"]
+                            board_path=folder / src.board_file)
+        final = folder / src.routing_file
+        meta = folder / src.metadata_file
         if meta.is_file():
-            board.metadata_sha256 = _sha(meta)
+            board.metadata_sha256 = sha256_file(meta)
             board.metadata = _read_metadata(meta)
         missing = [p.name for p in (board.board_path, final) if not p.is_file()]
         if board.board_path.is_file():
-            board.board_sha256 = _sha(board.board_path)
+            board.board_sha256 = sha256_file(board.board_path)
         if final.is_file():
-            board.final_sha256 = _sha(final)
+            board.final_sha256 = sha256_file(final)
         if missing:
             board.fate, board.reason = MISSING_INPUT, "no " + " and no ".join(missing)
         else:
@@ -112,5 +109,5 @@ def snapshot_sha256(boards: list[SourceBoard]) -> str:
     digest = hashlib.sha256()
     for b in boards:
         digest.update(f"{b.name}\0{b.board_sha256}\0{b.final_sha256}\0"
-                      f"{b.metadata_sha256}\n".encode("utf-8"))
+                      f"{b.metadata_sha256}\n".encode())
     return digest.hexdigest()

@@ -2,9 +2,15 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+from pcbdata.configs import D3_TIERS
+from pcbdata.tree import d3_board_id
+
+if TYPE_CHECKING:
+    from pcbdata.curation.recipe import Override, Recipe
 
 COLUMNS = ["board_id", "name", "nets", "components", "pads", "layers", "tier", "in_test"]
-CONFIGS = {"A": "d3-a", "B": "d3-b", "C": "d3-c"}
 
 
 @dataclass
@@ -20,7 +26,7 @@ class Row:
 
     @property
     def board_id(self) -> str:
-        return f"{self.row:04d}_{self.name}"
+        return d3_board_id(self.row, self.name)
 
 
 def number_rows(rows: list[Row]) -> list[Row]:
@@ -70,52 +76,49 @@ def picks(rows: list[Row], bins: int, layers: int | None = 2,
 
 
 def apply_replacements(chosen: list[Row], tier_rows: list[Row], config: str,
-                       overrides: list[dict]) -> tuple[list[Row], list[dict]]:
+                       overrides: list[Override]) -> tuple[list[Row], list[dict]]:
     """Applies `replace_pick` overrides of `config`; returns (picks, applied/unapplied notes)."""
     by_name = {r.name: r for r in tier_rows}
     out = list(chosen)
     notes = []
     for o in overrides:
-        if o.get("config") != config:
+        if o.config != config:
             continue
         names = [r.name for r in out]
-        if o["board"] not in names:
-            notes.append({**o, "applied": False, "why": "board is not a computed pick"})
-        elif o["replacement"] not in by_name:
-            notes.append({**o, "applied": False, "why": "replacement is not in the tier"})
-        elif o["replacement"] in names:
-            notes.append({**o, "applied": False, "why": "replacement is already a pick"})
+        why = ""
+        if o.board not in names:
+            why = "board is not a computed pick"
+        elif o.replacement not in by_name:
+            why = "replacement is not in the tier"
+        elif o.replacement in names:
+            why = "replacement is already a pick"
         else:
-            out[names.index(o["board"])] = by_name[o["replacement"]]
-            notes.append({**o, "applied": True, "why": ""})
+            out[names.index(o.board)] = by_name[o.replacement]
+        notes.append({**o.as_dict(), "applied": not why, "why": why})
     return out, notes
 
 
-def evaluation_subsets(tiers: dict[str, list[Row]], recipe,
-                       unloadable: set[str] = frozenset()) -> tuple[dict[str, list[Row]], list]:
+def evaluation_subsets(tiers: dict[str, list[Row]], recipe: Recipe,
+                       unloadable: frozenset[str] = frozenset(),
+                       ) -> tuple[dict[str, list[Row]], list]:
     """Test subsets per tier, in table order, with the recipe's overrides applied."""
-    p = recipe["picks"]
+    rule = recipe.picks
     notes: list[dict] = []
-    leave_out = {o["board"]: o for o in recipe.overrides("exclude_from_test")
-                 if o.get("config", "d3-a") == "d3-a"}
-    subset_a = []
-    for r in tiers["A"]:
-        if r.name in leave_out or r.name in unloadable:
-            continue
-        subset_a.append(r)
+    leave_out = {o.board: o for o in recipe.overrides("exclude_from_test")
+                 if (o.config or D3_TIERS["A"]) == D3_TIERS["A"]}
+    subsets = {"A": [r for r in tiers["A"] if r.name not in leave_out and r.name not in unloadable]}
     for name, o in leave_out.items():
-        notes.append({**o, "applied": any(r.name == name for r in tiers["A"]),
-                      "why": "" if any(r.name == name for r in tiers["A"]) else
-                      "board is not in the tier"})
-    subsets = {"A": subset_a}
-    for tier, trim in (("B", 0.0), ("C", float(p["c_trim_fraction"]))):
-        chosen = picks(tiers[tier], int(p["bins"]), p.get("layers"), trim)
-        chosen, more = apply_replacements(chosen, tiers[tier], CONFIGS[tier],
+        present = any(r.name == name for r in tiers["A"])
+        notes.append({**o.as_dict(), "applied": present,
+                      "why": "" if present else "board is not in the tier"})
+    for tier, trim in (("B", 0.0), ("C", rule.c_trim_fraction)):
+        config = D3_TIERS[tier]
+        chosen = picks(tiers[tier], rule.bins, rule.layers, trim)
+        chosen, more = apply_replacements(chosen, tiers[tier], config,
                                           recipe.overrides("replace_pick"))
         notes.extend(more)
         # exclude_from_test overrides for B/C configs drop picks too
-        drop = {o["board"] for o in recipe.overrides("exclude_from_test")
-                if o.get("config") == CONFIGS[tier]}
+        drop = {o.board for o in recipe.overrides("exclude_from_test") if o.config == config}
         subsets[tier] = sorted((r for r in chosen if r.name not in drop), key=lambda r: r.row)
     for rows in subsets.values():
         for r in rows:

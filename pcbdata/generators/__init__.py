@@ -1,10 +1,12 @@
 """Board generators: a generator is an object; (seed, split, index) in, instance out.
 
-Each generator states its guarantee: every instance it returns loads in KiCad 9.0.8 and has a
-DRC with no violations other than the unconnected items that routing will resolve.
+`base.Generator` is the protocol (with the guarantee every generator states: each instance
+loads in KiCad 9.0.8 and has a DRC with no violations other than the unconnected items that
+routing will resolve); `D1Generator` and `D2Generator` implement it.
 """
-from pcbdata.generators.base import Instance
-from pcbdata.generators.d1 import D1Generator, D1Params
+from pcbdata.generators.base import Generator, Instance, SplitArrays
+from pcbdata.generators.d1 import D1Generator, D1Params, GridInstance
 from pcbdata.generators.d2 import D2Generator, D2Params
 
-__all__ = ["Instance", "D1Generator", "D1Params", "D2Generator", "D2Params"]
+__all__ = ["Generator", "SplitArrays", "Instance", "GridInstance", "D1Generator", "D1Params",
+           "D2Generator", "D2Params"]

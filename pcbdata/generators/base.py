@@ -1,14 +1,21 @@
+"""The generator protocol: what every board generator (D1, D2, ...) provides.
+
+The build pipeline (`pcbdata.synthetic_build`), the golden tests and the routing environment
+see generators through `Generator` only; family specifics stay in the family's module. A
+generator that also exports whole splits as arrays (D1: the Connector arrays) implements
+`SplitArrays` as well.
+"""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from typing import Any, Protocol, runtime_checkable
 
 from pcbdata.board import Board, nm_to_mm
-
-SPLITS = ("train", "validation", "test")
+from pcbdata.tree import synthetic_board_id
 
 
 def board_id(index: int) -> str:
-    return f"board_{index:05d}"
+    return synthetic_board_id(index)
 
 
 @dataclass
@@ -18,11 +25,9 @@ class Instance:
     board_id: str
     board: Board
     reference: Board | None = None
-    # D1 only: per net, (start cell, target cell) as (i, j); the pad of cell (i, j) is centred
-    # at ((i + 0.75) g, (j + 0.75) g).
-    cells: list[tuple[tuple[int, int], tuple[int, int]]] = field(default_factory=list)
 
     def facts(self, routing_layers: int) -> dict:
+        """The per-board facts of the manifest (vocabulary: `pcbdata.manifest.BOARD_FACTS`)."""
         board = self.board
         return {
             "n_nets": len(board.net_names),
@@ -33,3 +38,34 @@ class Instance:
             "width_mm": nm_to_mm(board.width),
             "height_mm": nm_to_mm(board.height),
         }
+
+
+@runtime_checkable
+class Generator(Protocol):
+    """A board generator: (seed, split, index) in, one `Instance` out.
+
+    Guarantee, stated by every implementation (which may add its own): the same parameters,
+    seed, split and index give the same instance, byte for byte once written (draws from
+    `pcbdata.rng.Stream`, one stream per board); the board loads in KiCad 9.0.8 and its DRC
+    reports nothing but the unconnected items routing resolves
+    (`instance.board.missing_connections`); a reference routing, when there is one, is
+    DRC-clean and fully connected. Parameters a generator cannot realise are rejected when it is
+    made (`UserError`); a board that still cannot be made raises `GenerationError`.
+    Generators are picklable: builds run them in worker processes.
+    """
+
+    family: str          # "d1", "d2": the family key of the random streams
+    routing_layers: int  # copper layers routing may use (a fact of every board)
+
+    def generate(self, seed: int, split: str, index: int) -> Instance: ...
+
+
+@runtime_checkable
+class SplitArrays(Protocol):
+    """A generator that also exports each split as arrays (`<config>/<split>.npz`)."""
+
+    def array_row(self, instance: Instance) -> Any:
+        """The row of one board (plain data, sent back from worker processes)."""
+
+    def split_arrays(self, board_ids: list[str], rows: list) -> bytes:
+        """The `.npz` bytes of a split from its boards' rows, in board order."""

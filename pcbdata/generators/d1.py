@@ -1,15 +1,14 @@
 """D1: synthetic grid boards, 5 two-pin nets, one routing layer (SPEC section 1)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Literal
+from dataclasses import dataclass, field
 
 from pcbdata.board import Board, Pad, Rules, Track, mm_to_nm
+from pcbdata.connector import connector_arrays, npz_bytes
 from pcbdata.errors import GenerationError, UserError
 from pcbdata.generators.base import Instance, board_id
 from pcbdata.rng import Stream
 
-GRID_SIZES = (10, 50, 100, 200, 500)
 PLACEMENTS = ("uniform", "random-walk")
 SIDE_NM = 100 * 1_000_000  # the lattice spans 100 mm whatever the grid size
 VIA_DIAMETER_NM = mm_to_nm(0.6)
@@ -20,14 +19,15 @@ _MAX_WALK_REDRAWS = 1000
 @dataclass(frozen=True)
 class D1Params:
     grid: int
-    placement: Literal["uniform", "random-walk"] = "uniform"
+    placement: str = "uniform"  # one of PLACEMENTS
     n_nets: int = 5
 
     def __post_init__(self) -> None:
         if not isinstance(self.grid, int) or self.grid < 2:
             raise UserError(f"D1 grid size must be an integer >= 2, got {self.grid!r}")
         if self.placement not in PLACEMENTS:
-            raise UserError(f"unknown D1 placement {self.placement!r}; choose one of {', '.join(PLACEMENTS)}")
+            raise UserError(f"unknown D1 placement {self.placement!r}; choose one of "
+                            f"{', '.join(PLACEMENTS)}")
         if self.n_nets < 1:
             raise UserError(f"D1 needs at least one net, got n_nets={self.n_nets}")
         if 2 * self.n_nets > self.grid * self.grid:
@@ -46,19 +46,33 @@ class D1Params:
                 "via_diameter_mm": 0.6, "via_drill_mm": 0.3, "routing_layer": "F.Cu"}
 
 
+Cell = tuple[int, int]
+
+
+@dataclass
+class GridInstance(Instance):
+    """A D1 instance: also, per net, its (start cell, target cell) as (i, j); the pad of cell
+    (i, j) is centred at ((i + 0.75) g, (j + 0.75) g)."""
+
+    cells: list[tuple[Cell, Cell]] = field(default_factory=list)
+
+
 class D1Generator:
-    """Grid boards of `params.n_nets` two-pin nets on a G x G lattice.
+    """Grid boards of `params.n_nets` two-pin nets on a G x G lattice (`Generator`,
+    `SplitArrays`: the Connector arrays of each split).
 
     Guarantee: pads sit in distinct cells; the board loads in KiCad 9.0.8 and its DRC reports
     only the `n_nets` unconnected items. With `random-walk` placement every instance also has a
     reference routing (the walks) that is DRC-clean and fully connected.
+    `connector_version` (the preset's) is recorded in the arrays; it is needed to export them.
     """
 
     family = "d1"
     routing_layers = 1
 
-    def __init__(self, params: D1Params):
+    def __init__(self, params: D1Params, connector_version: str | None = None):
         self.params = params
+        self.connector_version = connector_version
         g = params.pitch_nm
         self.rules = Rules(clearance=g // 2, track_width=g // 2, edge_clearance=g // 2,
                            via_diameter=VIA_DIAMETER_NM, via_drill=VIA_DRILL_NM,
@@ -68,7 +82,7 @@ class D1Generator:
         g = self.params.pitch_nm
         return round((4 * i + 3) * g / 4), round((4 * j + 3) * g / 4)
 
-    def generate(self, seed: int, split: str, index: int) -> Instance:
+    def generate(self, seed: int, split: str, index: int) -> GridInstance:
         stream = Stream(seed, "d1", self.params.grid, split, index)
         if self.params.placement == "uniform":
             cells, walks = self._uniform_cells(stream), None
@@ -77,7 +91,18 @@ class D1Generator:
         key = f"d1/{self.params.grid}/{self.params.placement}/{seed}/{split}/{index}"
         board = self._board(cells, key, walks=None)
         reference = self._board(cells, key, walks=walks) if walks is not None else None
-        return Instance(board_id=board_id(index), board=board, reference=reference, cells=cells)
+        return GridInstance(board_id=board_id(index), board=board, reference=reference,
+                            cells=cells)
+
+    def array_row(self, instance: Instance) -> list:
+        assert isinstance(instance, GridInstance)
+        return instance.cells
+
+    def split_arrays(self, board_ids: list[str], rows: list) -> bytes:
+        if self.connector_version is None:
+            raise ValueError("D1Generator(connector_version=...) is needed to export arrays")
+        return npz_bytes(connector_arrays(board_ids, rows, self.params.grid,
+                                          self.connector_version))
 
     def _uniform_cells(self, stream: Stream):
         grid = self.params.grid

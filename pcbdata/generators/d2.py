@@ -4,7 +4,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field, fields
 
-from pcbdata.board import Board, Pad, Rules, mm_to_nm
+from pcbdata.board import Board, CopperLayer, Pad, PadKind, Rules, mm_to_nm
 from pcbdata.errors import GenerationError, UserError
 from pcbdata.generators.base import Instance, board_id
 from pcbdata.rng import Stream
@@ -41,7 +41,7 @@ class D2Params:
         return [f.name for f in fields(cls)]
 
     @classmethod
-    def from_dict(cls, values: dict, where: str) -> "D2Params":
+    def from_dict(cls, values: dict, where: str) -> D2Params:
         """Typed parameters from preset/override values; `where` names their origin in errors."""
         known = {f.name: f for f in fields(cls)}
         kwargs = {}
@@ -52,7 +52,7 @@ class D2Params:
                 close = get_close_matches(key, known, n=1)
                 hint = f" (did you mean {close[0]!r}?)" if close else ""
                 raise UserError(f"{where}: unknown D2 parameter {key!r}{hint}")
-            kwargs[key] = _coerce(key, value, cls.__dataclass_fields__[key].type, where)
+            kwargs[key] = _coerce(key, value, str(known[key].type), where)
         return cls(**kwargs)
 
     def __post_init__(self) -> None:
@@ -65,7 +65,8 @@ class D2Params:
         for name in ("width_mm", "height_mm"):
             low, high = getattr(self, name)
             if not 0 < low <= high:
-                out.append(f"{name} must be a range [low, high] with 0 < low <= high, got {[low, high]}")
+                out.append(f"{name} must be a range [low, high] with 0 < low <= high, "
+                           f"got {[low, high]}")
         if not self.net_counts or min(self.net_counts) < 1:
             out.append(f"net_counts must list net counts >= 1, got {list(self.net_counts)}")
         if not self.pads_per_net:
@@ -74,7 +75,8 @@ class D2Params:
             if int(k) < 2 or p < 0:
                 out.append(f"pads_per_net: a net has >= 2 pads with probability >= 0, got {k}: {p}")
         if self.pads_per_net and abs(math.fsum(self.pads_per_net.values()) - 1) > 1e-9:
-            out.append(f"pads_per_net probabilities must sum to 1, got {math.fsum(self.pads_per_net.values()):g}")
+            total = math.fsum(self.pads_per_net.values())
+            out.append(f"pads_per_net probabilities must sum to 1, got {total:g}")
         for name in ("pad_size_mm", "drill_mm", "lattice_mm", "min_pad_spacing_mm",
                      "track_width_mm", "via_diameter_mm", "via_drill_mm"):
             if getattr(self, name) <= 0:
@@ -171,9 +173,11 @@ class D2Generator:
     def __init__(self, params: D2Params):
         self.params = params
         p = params
-        self.rules = Rules(clearance=mm_to_nm(p.clearance_mm), track_width=mm_to_nm(p.track_width_mm),
+        self.rules = Rules(clearance=mm_to_nm(p.clearance_mm),
+                           track_width=mm_to_nm(p.track_width_mm),
                            edge_clearance=mm_to_nm(p.edge_clearance_mm),
-                           via_diameter=mm_to_nm(p.via_diameter_mm), via_drill=mm_to_nm(p.via_drill_mm))
+                           via_diameter=mm_to_nm(p.via_diameter_mm),
+                           via_drill=mm_to_nm(p.via_drill_mm))
         self._pad_counts = [int(k) for k in p.pads_per_net]
         self._pad_weights = list(p.pads_per_net.values())
 
@@ -185,7 +189,7 @@ class D2Generator:
         height = mm_to_nm(round(stream.uniform(*p.height_mm), 3))
         n_nets = stream.choice(p.net_counts)
         sizes = [stream.weighted(self._pad_counts, self._pad_weights) for _ in range(n_nets)]
-        kinds = []
+        kinds: list[tuple[PadKind, CopperLayer]] = []
         for _ in range(sum(sizes)):
             if stream.random() < p.through_hole_fraction:
                 kinds.append(("thru_round", "F.Cu"))
@@ -205,8 +209,10 @@ class D2Generator:
         p = self.params
         lattice = mm_to_nm(p.lattice_mm)
         margin = (1 - p.placement_fraction) / 2
-        lo_x, hi_x = math.ceil(margin * width / lattice), math.floor((1 - margin) * width / lattice)
-        lo_y, hi_y = math.ceil(margin * height / lattice), math.floor((1 - margin) * height / lattice)
+        lo_x = math.ceil(margin * width / lattice)
+        hi_x = math.floor((1 - margin) * width / lattice)
+        lo_y = math.ceil(margin * height / lattice)
+        hi_y = math.floor((1 - margin) * height / lattice)
         nx, ny = hi_x - lo_x + 1, hi_y - lo_y + 1
         min_sq = mm_to_nm(p.min_pad_spacing_mm) ** 2
         for _ in range(_PLACEMENT_RESTARTS):

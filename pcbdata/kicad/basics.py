@@ -16,10 +16,6 @@ def pcbnew_module():
 
     return pcbnew
 
-
-_pcbnew = pcbnew_module
-
-
 def stage_with_project(board_path: str, project: str, custom_rules: str | None, folder: str,
                        stem: str = "checked") -> str:
     """Copies a board next to copies of a project (and custom rules) under one stem in
@@ -31,14 +27,12 @@ def stage_with_project(board_path: str, project: str, custom_rules: str | None, 
         shutil.copyfile(custom_rules, os.path.join(folder, f"{stem}.kicad_dru"))
     return staged
 
-
 def kicad_version() -> str:
-    return str(_pcbnew().Version())
-
+    return str(pcbnew_module().Version())
 
 def load_board(path: str):
     """Loads a board (and its project file, which carries the design rules)."""
-    pcbnew = _pcbnew()
+    pcbnew = pcbnew_module()
     if not os.path.isfile(path):
         raise FileNotFoundError(f"{path}: no such board file")
     board = pcbnew.LoadBoard(path)
@@ -46,10 +40,9 @@ def load_board(path: str):
         raise ValueError(f"{path}: KiCad could not load the board")
     return board
 
-
 def board_drc_text(board, where: str = "board") -> str:
     """KiCad's DRC (all track errors) of a loaded board under the project it was loaded with."""
-    pcbnew = _pcbnew()
+    pcbnew = pcbnew_module()
     with tempfile.TemporaryDirectory(prefix="pcbdata-drc-") as tmp:
         report = os.path.join(tmp, "drc.rpt")
         if not pcbnew.WriteDRCReport(board, report, pcbnew.EDA_UNITS_MM, True):
@@ -58,11 +51,9 @@ def board_drc_text(board, where: str = "board") -> str:
         with open(report, encoding="utf-8", errors="replace") as handle:
             return handle.read()
 
-
 def drc_text(path: str) -> str:
     """Runs KiCad's DRC on a board file with its own project rules; returns the report text."""
     return board_drc_text(load_board(path), path)
-
 
 def drc(path: str, project: str | None = None, custom_rules: str | None = None) -> dict:
     """DRC of a board file as a plain-data report (see `drc_report.DrcReport.to_dict`).

@@ -59,12 +59,32 @@ class DrcReport:
             counts[v.type] = counts.get(v.type, 0) + 1
         return dict(sorted(counts.items()))
 
+    def error_counts(self) -> tuple[dict[str, int], int]:
+        """Error-severity violations per type, and unconnected items (excluded markers left
+        out): what a board is kept or rejected by when only errors and connectivity count."""
+        types: dict[str, int] = {}
+        unconnected = 0
+        for v in self.violations:
+            if v.severity == "excluded":
+                continue
+            if v.section == "unconnected":
+                unconnected += 1
+            elif v.severity == "error":
+                types[v.type] = types.get(v.type, 0) + 1
+        return types, unconnected
+
+    def within(self, max_errors: int, max_unconnected: int) -> bool:
+        """At most `max_errors` error-severity violations and `max_unconnected` unconnected
+        items (the D3 revalidation rule; the numbers come from the recipe)."""
+        types, unconnected = self.error_counts()
+        return sum(types.values()) <= max_errors and unconnected <= max_unconnected
+
     def to_dict(self) -> dict:
         return {"violations": [asdict(v) for v in self.violations],
                 "declared_counts": self.declared_counts}
 
     @classmethod
-    def from_dict(cls, data: dict) -> "DrcReport":
+    def from_dict(cls, data: dict) -> DrcReport:
         violations = [
             Violation(**{**v, "items": [ReportItem(**i) for i in v["items"]]})
             for v in data["violations"]

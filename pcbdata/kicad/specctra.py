@@ -99,7 +99,8 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         router_cpu = _children_cpu() - cpu_start
         if result.returncode != 0 or not os.path.isfile(ses) or os.path.getsize(ses) == 0:
             tail = result.stderr.decode(errors="replace").strip().splitlines()[-1:] or [""]
-            return {"ok": False, "reason": f"router failed (exit {result.returncode}) {tail[0]}".strip(),
+            reason = f"router failed (exit {result.returncode}) {tail[0]}".strip()
+            return {"ok": False, "reason": reason,
                     "seconds": time.perf_counter() - start, "router_seconds": router_seconds}
         if fix_resolution:
             with open(dsn, "rb") as handle:

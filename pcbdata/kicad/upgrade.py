@@ -12,25 +12,28 @@ worker, whatever it did before.
 """
 from __future__ import annotations
 
-import hashlib
 import json
 import os
 import re
 import shutil
 import tempfile
 import time
-from pcbdata.kicad.basics import board_drc_text, pcbnew_module as _pcbnew
+from typing import Any
 
-BOARD = "board.kicad_pcb"
-PROJECT = "board.kicad_pro"
-REFERENCE = "reference.kicad_pcb"
+from pcbdata.hashing import sha256_bytes, sha256_file
+from pcbdata.kicad.basics import board_drc_text
+from pcbdata.kicad.basics import pcbnew_module as _pcbnew
+from pcbdata.kicad.drc_report import parse_drc_report
+from pcbdata.kicad.projectfile import (
+    check_project,
+    default_clearance,
+    dumps_project,
+    patch_project,
+    with_default_clearance,
+)
+from pcbdata.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE
 
 _ACTUAL = re.compile(r"actual ([0-9.]+) mm")
-
-
-def _sha(path: str) -> str:
-    with open(path, "rb") as handle:
-        return hashlib.sha256(handle.read()).hexdigest()
 
 
 def _unload_projects() -> None:
@@ -62,11 +65,11 @@ def _drc(board_path: str, seed: int) -> str:
 
 def _stage(folder: str, board_bytes: bytes, project_text: str) -> str:
     os.makedirs(folder)
-    with open(os.path.join(folder, BOARD), "wb") as handle:
+    with open(os.path.join(folder, BOARD_FILE), "wb") as handle:
         handle.write(board_bytes)
-    with open(os.path.join(folder, PROJECT), "w", encoding="utf-8") as handle:
+    with open(os.path.join(folder, PROJECT_FILE), "w", encoding="utf-8") as handle:
         handle.write(project_text)
-    return os.path.join(folder, BOARD)
+    return os.path.join(folder, BOARD_FILE)
 
 
 def min_copper_spacing(board_bytes: bytes, project: dict, work: str, seed: int,
@@ -77,12 +80,8 @@ def min_copper_spacing(board_bytes: bytes, project: dict, work: str, seed: int,
     report the actual spacings; the smallest one wins. None when nothing is closer than the
     probe (the caller then uses the probe value).
     """
-    from pcbdata.curation.projectfile import dumps_project, with_default_clearance
-
     probe = with_default_clearance(project, probe_mm)
     path = _stage(os.path.join(work, "probe"), board_bytes, dumps_project(probe))
-    from pcbdata.kicad.drc_report import parse_drc_report
-
     best = None
     for violation in parse_drc_report(_drc(path, seed)).violations:
         if violation.type != "clearance" or violation.severity == "excluded":
@@ -187,154 +186,146 @@ def warm_up(compat: dict) -> None:
         shutil.rmtree(folder, ignore_errors=True)
 
 
-def check_project(project: dict, skip_checks) -> dict:
-    """The project the revalidation DRC runs with: `project` with every check of
-    `skip_checks` whose severity there is "warning" or "ignore" set to "ignore".
-
-    Only error-severity violations and unconnected items decide whether a board is kept, so
-    skipping warning-only checks (silk, text, library parity, ...) cannot change a verdict;
-    it halves the DRC time. A check the project makes an error is always run.
-    """
-    import copy
-
-    out = copy.deepcopy(project)
-    severities = out.setdefault("board", {}).setdefault("design_settings", {}).setdefault(
-        "rule_severities", {})
-    for name in skip_checks:
-        if severities.get(name, "error") in ("warning", "ignore"):  # absent: run it
-            severities[name] = "ignore"
-    return out
-
-
 def process_board(source_path: str, seed: int, compat: dict, keep: dict | None = None) -> dict:
     """Upgrades, patches, revalidates and strips one source board.
 
-    `keep` is the recipe's `[keep]` table: its skip list shapes the revalidation DRC, and a
-    board its thresholds reject stops after the DRC (stage `drc`, no bare board: it is never
-    written). Without it (the warm-up) every step runs.
+    The policy is data: `compat` is the recipe's `[compat]` table (see
+    `pcbdata.kicad.projectfile.patch_project`), `keep` its `[keep]` table (`max_errors`,
+    `max_unconnected`, `skip_warning_checks`), both as plain dicts. The skip list shapes the
+    revalidation DRC, and a board the thresholds reject stops after the DRC (stage `drc`, no
+    bare board: it is never written). Without `keep` (the warm-up) every step runs.
 
     Returns plain data: `stage` (the step reached or failed at: load, upgrade, compat, drc,
     bare, done), `error`, the produced files as bytes (`files`: board, project, reference),
     the DRC report (`drc`, `DrcReport.to_dict()`), hashes around the compatibility pass and
     board facts. Raises nothing for a bad board: the failure is in the result.
     """
-    from pcbdata.curation.build import is_kept
-    from pcbdata.curation.projectfile import (default_clearance, dumps_project,
-                                              patch_project)
-    from pcbdata.kicad.drc_report import parse_drc_report
-
-    skip_checks = (keep or {}).get("skip_warning_checks", ())
-
-    pcbnew = _pcbnew()
     warm_up(compat)
-    result: dict = {"stage": "load", "error": "", "timings": {}}
-    work = tempfile.mkdtemp(prefix="pcbdata-d3-")
-    clock = time.perf_counter()
-
-    def lap(name: str) -> None:
-        nonlocal clock
-        now = time.perf_counter()
-        result["timings"][name] = round(now - clock, 3)
-        clock = now
-
+    job = _BoardJob(source_path, seed, compat, keep)
     try:
-        src = os.path.join(work, "source.kicad_pcb")
-        shutil.copyfile(source_path, src)
-        try:
-            board = _load(src, seed)
-        except Exception as exc:  # noqa: BLE001
-            result["error"] = f"load: {exc}"
-            return result
-        if board.GetFootprints() is None:
-            result["error"] = "load: board has no footprint list"
-            return result
-        lap("load")
+        return job.run()
+    finally:
+        _unload_projects()
+        shutil.rmtree(job.work, ignore_errors=True)
 
-        result["stage"] = "upgrade"
-        result["uuids_fixed"] = dedupe_uuids(board)
-        up_dir = os.path.join(work, "upgraded")
+
+class _Failed(Exception):
+    """A step failed; the message (after the step's name) is the board's recorded reason."""
+
+
+class _BoardJob:
+    """The steps of `process_board` on one board, each a method; a step raises `_Failed`."""
+
+    def __init__(self, source_path: str, seed: int, compat: dict, keep: dict | None):
+        self.source_path, self.seed, self.compat, self.keep = source_path, seed, compat, keep
+        self.result: dict[str, Any] = {"stage": "load", "error": "", "timings": {}}
+        self.work = tempfile.mkdtemp(prefix="pcbdata-d3-")
+        self.board: Any = None   # the loaded board, until saved upgraded
+        self.bare: Any = None    # the board the DRC checked, stripped into the bare board
+        self.board_bytes = b""   # the upgraded board file: the reference
+        self.project: dict = {}  # the project KiCad saved with it
+        self.project_text = ""   # the patched project, as shipped
+        self.check_path = ""
+
+    def run(self) -> dict:
+        steps = (("load", self._load), ("upgrade", self._upgrade), ("compat", self._compat),
+                 ("drc", self._drc), ("bare", self._bare))
+        clock = time.perf_counter()
+        try:
+            for name, step in steps:
+                self.result["stage"] = name
+                go_on = step()
+                now = time.perf_counter()
+                self.result["timings"][name] = round(now - clock, 3)
+                clock = now
+                if go_on is False:
+                    return self.result
+        except _Failed as exc:
+            self.result["error"] = f"{self.result['stage']}: {exc}"
+            return self.result
+        self.result["stage"] = "done"
+        return self.result
+
+    def _load(self) -> None:
+        src = os.path.join(self.work, "source.kicad_pcb")
+        shutil.copyfile(self.source_path, src)
+        try:
+            self.board = _load(src, self.seed)
+        except Exception as exc:  # noqa: BLE001
+            raise _Failed(str(exc)) from None
+        if self.board.GetFootprints() is None:
+            raise _Failed("board has no footprint list")
+
+    def _upgrade(self) -> None:
+        self.result["uuids_fixed"] = dedupe_uuids(self.board)
+        up_dir = os.path.join(self.work, "upgraded")
         os.makedirs(up_dir)
-        up_board = os.path.join(up_dir, BOARD)
-        if not pcbnew.SaveBoard(up_board, board):
-            result["error"] = "upgrade: KiCad could not save the board"
-            return result
-        result["facts"] = _facts(board)
-        del board
-        up_project = os.path.join(up_dir, PROJECT)
+        up_board = os.path.join(up_dir, BOARD_FILE)
+        if not _pcbnew().SaveBoard(up_board, self.board):
+            raise _Failed("KiCad could not save the board")
+        self.result["facts"] = _facts(self.board)
+        self.board = None
+        up_project = os.path.join(up_dir, PROJECT_FILE)
         if not os.path.isfile(up_project):
-            result["error"] = "upgrade: KiCad saved no project file"
-            return result
+            raise _Failed("KiCad saved no project file")
         with open(up_board, "rb") as handle:
-            board_bytes = handle.read()
+            self.board_bytes = handle.read()
         with open(up_project, encoding="utf-8") as handle:
-            project = json.load(handle)
-        lap("upgrade")
+            self.project = json.load(handle)
 
-        result["stage"] = "compat"
-        before = hashlib.sha256(board_bytes).hexdigest()
+    def _compat(self) -> None:
+        before = sha256_bytes(self.board_bytes)
         spacing = None
-        clearance = default_clearance(project)
+        clearance = default_clearance(self.project)
         if not clearance:
-            spacing = min_copper_spacing(board_bytes, project, work, seed,
-                                         float(compat["spacing_probe_mm"]))
+            probe = float(self.compat["spacing_probe_mm"])
+            spacing = min_copper_spacing(self.board_bytes, self.project, self.work, self.seed,
+                                         probe)
             if spacing is None:
-                spacing = float(compat["spacing_probe_mm"])
-        patched = patch_project(project, compat, spacing)
-        project_text = dumps_project(patched)
-        check_path = _stage(os.path.join(work, "check"), board_bytes,
-                            dumps_project(check_project(patched, skip_checks)))
-        after = _sha(check_path)
-        result["compat"] = {"board_sha256_before": before, "board_sha256_after": after,
-                            "board_identical": before == after,
-                            "stored_clearance": clearance, "observed_spacing": spacing}
+                spacing = probe
+        patched = patch_project(self.project, self.compat, spacing)
+        self.project_text = dumps_project(patched)
+        skip_checks = (self.keep or {}).get("skip_warning_checks", ())
+        self.check_path = _stage(os.path.join(self.work, "check"), self.board_bytes,
+                                 dumps_project(check_project(patched, skip_checks)))
+        after = sha256_file(self.check_path)
+        self.result["compat"] = {"board_sha256_before": before, "board_sha256_after": after,
+                                 "board_identical": before == after,
+                                 "stored_clearance": clearance, "observed_spacing": spacing}
         if before != after:
-            result["error"] = "compat: the board file changed during the project pass"
-            return result
-        lap("compat")
+            raise _Failed("the board file changed during the project pass")
 
-        result["stage"] = "drc"
+    def _drc(self) -> bool:
+        """Checks the board; False (stop) when the recipe's thresholds reject it."""
         try:
-            bare = _load(check_path, seed)  # checked, then stripped into the bare board
-            report = parse_drc_report(board_drc_text(bare, check_path))
+            self.bare = _load(self.check_path, self.seed)  # checked, then stripped
+            report = parse_drc_report(board_drc_text(self.bare, self.check_path))
         except Exception as exc:  # noqa: BLE001
-            result["error"] = f"drc: {exc}"
-            return result
-        result["drc"] = report.to_dict()
-        lap("drc")
-        if keep is not None and not is_kept(report, keep):
-            return result
+            raise _Failed(str(exc)) from None
+        self.result["drc"] = report.to_dict()
+        if self.keep is None:
+            return True
+        return report.within(int(self.keep["max_errors"]), int(self.keep["max_unconnected"]))
 
-        result["stage"] = "bare"
-        for item in list(bare.GetTracks()):
-            bare.Delete(item)
-        bare_dir = os.path.join(work, "bare")
+    def _bare(self) -> None:
+        for item in list(self.bare.GetTracks()):
+            self.bare.Delete(item)
+        bare_dir = os.path.join(self.work, "bare")
         os.makedirs(bare_dir)
-        bare_path = os.path.join(bare_dir, BOARD)
-        if not pcbnew.SaveBoard(bare_path, bare, True):
-            result["error"] = "bare: KiCad could not save the bare board"
-            return result
-        del bare
-        with open(os.path.join(bare_dir, PROJECT), "w", encoding="utf-8") as handle:
-            handle.write(project_text)
+        bare_path = os.path.join(bare_dir, BOARD_FILE)
+        if not _pcbnew().SaveBoard(bare_path, self.bare, True):
+            raise _Failed("KiCad could not save the bare board")
+        self.bare = None
+        with open(os.path.join(bare_dir, PROJECT_FILE), "w", encoding="utf-8") as handle:
+            handle.write(self.project_text)
         try:
-            reloaded = _load(bare_path, seed)  # the task must load as it ships
+            reloaded = _load(bare_path, self.seed)  # the task must load as it ships
         except Exception as exc:  # noqa: BLE001
-            result["error"] = f"bare: the bare board does not load again ({exc})"
-            return result
-        result["bare_facts"] = _facts(reloaded)
+            raise _Failed(f"the bare board does not load again ({exc})") from None
+        self.result["bare_facts"] = _facts(reloaded)
         del reloaded
         with open(bare_path, "rb") as handle:
             bare_bytes = handle.read()
-        lap("bare")
-        result["files"] = {"board.kicad_pcb": bare_bytes,
-                           "board.kicad_pro": project_text.encode("utf-8"),
-                           "reference.kicad_pcb": board_bytes}
-        result["stage"] = "done"
-        return result
-    finally:
-        _unload_projects()
-        shutil.rmtree(work, ignore_errors=True)
-
-
-def kicad_version() -> str:
-    return str(_pcbnew().Version())
+        self.result["files"] = {BOARD_FILE: bare_bytes,
+                                PROJECT_FILE: self.project_text.encode("utf-8"),
+                                REFERENCE_FILE: self.board_bytes}

@@ -6,8 +6,14 @@
   `materialize_row` and `materialize`: rows back to KiCad files.
 - `push(root, repo)`: upload to the Hugging Face Hub.
 """
-from pcbdata.publish.loading import (BoardOnDisk, iter_boards, load, materialize,
-                                     materialize_row, row_files)
+from pcbdata.publish.loading import (
+                                     BoardOnDisk,
+                                     iter_boards,
+                                     load,
+                                     materialize,
+                                     materialize_row,
+                                     row_files,
+)
 from pcbdata.publish.publisher import publish_set
 from pcbdata.publish.push import push
 from pcbdata.publish.verify import verify_published

@@ -19,8 +19,10 @@ import os
 import re
 from pathlib import Path
 
+from pcbdata.configs import order_key
 from pcbdata.errors import UserError
 from pcbdata.fsutil import write_atomic
+from pcbdata.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE, RULES_FILE
 
 CARD_NAME = "README.md"
 STATE_NAME = "publish.json"
@@ -37,13 +39,12 @@ SHARD_RE = re.compile(r"^(?P<split>[A-Za-z0-9_]+)-(?P<index>\d{5})-of-(?P<total>
 # Board-folder file -> (text column, hash column). Every other file of a board folder goes to
 # the `other_files` column, so that any tree round-trips.
 FILE_COLUMNS = {
-    "board.kicad_pcb": ("board", "sha256"),
-    "board.kicad_pro": ("project", "project_sha256"),
-    "board.kicad_dru": ("custom_rules", "custom_rules_sha256"),
-    "reference.kicad_pcb": ("reference", "reference_sha256"),
+    BOARD_FILE: ("board", "sha256"),
+    PROJECT_FILE: ("project", "project_sha256"),
+    RULES_FILE: ("custom_rules", "custom_rules_sha256"),
+    REFERENCE_FILE: ("reference", "reference_sha256"),
 }
 TEXT_COLUMNS = tuple(text for text, _ in FILE_COLUMNS.values())
-HASH_COLUMNS = tuple(digest for _, digest in FILE_COLUMNS.values())
 
 
 def shard_name(split: str, index: int, total: int) -> str:
@@ -55,17 +56,9 @@ def split_key(split: str) -> tuple[int, str]:
 
 
 def config_key(config: str) -> tuple:
-    """Reading order of configs: d2 (and its levels), d1 by grid size, d3 tiers, then the rest."""
-    match = re.fullmatch(r"d1-g(\d+)(-.+)?", config)
-    if config == "d2":
-        return (0, 0, "", config)
-    if config.startswith("d2-"):
-        return (0, 1, "", config)
-    if match:
-        return (1, int(match.group(1)), match.group(2) or "", config)
-    if config.startswith("d3"):
-        return (2, 0, "", config)
-    return (3, 0, "", config)
+    """Reading order of configs (`pcbdata.configs.order_key`): d2 (and its levels), d1 by grid
+    size, d3 tiers, then the rest."""
+    return order_key(config)
 
 
 def default_config(configs) -> str:

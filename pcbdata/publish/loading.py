@@ -7,17 +7,19 @@ import os
 import re
 import shutil
 import tempfile
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Iterator
 
 import pyarrow.parquet as pq
 
 from pcbdata.errors import UserError
-from pcbdata.fsutil import sha256_bytes, sha256_file, write_dir_atomic
+from pcbdata.fsutil import write_dir_atomic
+from pcbdata.hashing import sha256_bytes, sha256_file
 from pcbdata.publish.card import read_card_configs
 from pcbdata.publish.layout import CARD_NAME, FILE_COLUMNS, STATE_NAME, split_key, suggest
 from pcbdata.publish.verify import recorded_shard_hashes as _recorded_hashes
+from pcbdata.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE, board_dir
 
 ROOT_ENV = "PCBDATA_ROOT"
 _HUB_ID = re.compile(r"^[A-Za-z0-9][\w.-]*/[\w.-]+$")
@@ -109,7 +111,8 @@ def _load_split(config: str, split: str, root: str | Path, **kwargs):
 
         return datasets.Dataset(pq.read_table(root / shards[0]))
     if "cache_dir" not in kwargs:
-        every = [rel for paths in card[config].values() for rel in paths]  # datasets prepares all splits
+        # datasets prepares all splits
+        every = [rel for paths in card[config].values() for rel in paths]
         kwargs["cache_dir"] = str(_cache_dir(root, every, recorded))
     try:
         return datasets.load_dataset(str(root), config, split=split, **kwargs)
@@ -183,22 +186,24 @@ def row_files(row: dict) -> dict[str, bytes]:
     for name, (text, digest) in files.items():
         data = text.encode("utf-8")
         if digest and sha256_bytes(data) != digest:
-            raise UserError(f"{row.get('board_id')}: {name} does not match its sha256 (damaged row)")
+            raise UserError(f"{row.get('board_id')}: {name} does not match its sha256 "
+                            f"(damaged row)")
         out[name] = data
     return out
 
 
 def materialize_row(row: dict, out_dir: str | Path, layout: str = "tree") -> Path:
     """Writes one row's board folder; returns it. `layout="tree"` gives
-    `out_dir/<config>/<split>/<board_id>/` (the built set's layout), `"flat"` `out_dir/<board_id>/`."""
+    `out_dir/<config>/<split>/<board_id>/` (the built set's layout), `"flat"`
+    `out_dir/<board_id>/`."""
     out_dir = Path(out_dir)
     if layout == "tree":
-        folder = out_dir / row["config"] / row["split"] / row["board_id"]
+        folder = board_dir(out_dir, row["config"], row["split"], row["board_id"])
     elif layout == "flat":
         folder = out_dir / row["board_id"]
     else:
         raise UserError(f"unknown layout {layout!r}; choose tree or flat")
-    write_dir_atomic(folder, row_files(row))
+    write_dir_atomic(folder, dict[str, bytes | str](row_files(row)))
     return folder
 
 
@@ -210,29 +215,29 @@ class BoardOnDisk:
 
     @property
     def board_path(self) -> Path:
-        return self.folder / "board.kicad_pcb"
+        return self.folder / BOARD_FILE
 
     @property
     def project_path(self) -> Path:
-        return self.folder / "board.kicad_pro"
+        return self.folder / PROJECT_FILE
 
     @property
     def reference_path(self) -> Path | None:
-        path = self.folder / "reference.kicad_pcb"
+        path = self.folder / REFERENCE_FILE
         return path if path.is_file() else None
 
 
 def iter_boards(rows: Iterable[dict] | str, split: str = "test", root=None,
-                workdir: str | Path | None = None, skip_recipes: bool = True) -> Iterator[BoardOnDisk]:
+                workdir: str | Path | None = None,
+                skip_recipes: bool = True) -> Iterator[BoardOnDisk]:
     """Yields every board of `rows` (a Dataset, any iterable of rows, or a config name loaded
     with `load(config, split, root)`) written as files in a folder.
 
     Without `workdir` each board lives in a temporary folder that is removed when the next
     board is yielded (copy what you want to keep); with `workdir` boards are kept in
     `workdir/<board_id>/`. Recipe rows are skipped (or raise with `skip_recipes=False`)."""
-    if isinstance(rows, str):
-        rows = load(rows, split=split, root=root)
-    for row in rows:
+    source: Iterable[dict] = load(rows, split=split, root=root) if isinstance(rows, str) else rows
+    for row in source:
         if row.get("board") is None and skip_recipes:
             continue
         if workdir is not None:
@@ -273,7 +278,8 @@ def materialize(sources: list[str | Path], out_dir: str | Path, configs: list[st
                 layout: str = "tree") -> dict:
     """Writes the rows of published sets or parquet shards as board folders under `out_dir`.
 
-    Returns counts: {"written", "recipes"} (recipe rows have no text and are listed, not written)."""
+    Returns counts: {"written", "recipes"} (recipe rows have no text and are listed, not
+    written)."""
     written, recipes = 0, []
     wanted = set(board_ids or [])
     for source in sources:

@@ -10,7 +10,6 @@ since the last run is not rewritten; rewriting gives the same bytes.
 from __future__ import annotations
 
 import fcntl
-import hashlib
 import json
 import os
 import shutil
@@ -19,16 +18,39 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 
+from pcbdata.configs import D3_TIERS
+from pcbdata.curation.recipe import tier_rules
 from pcbdata.errors import UserError
-from pcbdata.fsutil import sha256_file
-from pcbdata.manifest import read_manifest
+from pcbdata.hashing import sha256_file, sha256_text
+from pcbdata.manifest import board_fact, read_manifest
 from pcbdata.publish import pictures
 from pcbdata.publish.card import attribution_markdown, card_text
-from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, INTERRUPTED_KEY, LOCK_NAME,
-                                    PICTURES_DIR, PUBLISH_FORMAT, SHARD_RE, STAGE_NAME, STATE_NAME,
-                                    config_key, shard_name, split_key, suggest, write_file)
-from pcbdata.publish.rows import (KNOWN_FACTS, board_fact, is_redistributable, iter_rows, schema_for,
-                                  table_from_rows)
+from pcbdata.publish.layout import (
+    ATTRIBUTION_NAME,
+    CARD_NAME,
+    INTERRUPTED_KEY,
+    LOCK_NAME,
+    PICTURES_DIR,
+    PUBLISH_FORMAT,
+    SHARD_RE,
+    STAGE_NAME,
+    STATE_NAME,
+    TEXT_COLUMNS,
+    config_key,
+    shard_name,
+    split_key,
+    suggest,
+    write_file,
+)
+from pcbdata.publish.rows import (
+    KNOWN_FACTS,
+    is_redistributable,
+    iter_rows,
+    schema_for,
+    table_from_rows,
+)
+from pcbdata.textio import canonical_json
+from pcbdata.tree import BOARD_FILE, REFERENCE_FILE, arrays_path, board_dir
 
 SHARD_BYTES = 256 * 1024 * 1024  # uncompressed text per shard
 ROW_GROUP_BYTES = 32 * 1024 * 1024
@@ -37,14 +59,15 @@ DEFAULT_PREVIEWS = 3
 _SMALL_COLUMNS = ["config", "split", "family", "set_version", "parameters"]
 
 
-STUB_CARD = (f"---\n{INTERRUPTED_KEY}: true\n---\n\n# Publishing of this board set did not finish\n\n"
+STUB_CARD = (f"---\n{INTERRUPTED_KEY}: true\n---\n\n"
+             "# Publishing of this board set did not finish\n\n"
              "Run `pcbdata publish DIR` again; until then the set cannot be loaded.\n")
 
 
 def fingerprint(manifest: dict, config: str) -> str:
     data = {"format": PUBLISH_FORMAT, "config": manifest["configs"][config],
             "kicad_version": manifest.get("kicad_version")}
-    return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
+    return sha256_text(json.dumps(data, sort_keys=True))
 
 
 def read_state(root: Path) -> dict:
@@ -77,19 +100,21 @@ def _up_to_date(root: Path, manifest: dict, config: str, state: dict) -> bool:
     for split in entry["splits"].values():
         for rel, info in split["shards"].items():
             path = root / rel
-            if not path.is_file() or path.stat().st_size != info["bytes"] or sha256_file(path) != info["sha256"]:
+            if (not path.is_file() or path.stat().st_size != info["bytes"]
+                    or sha256_file(path) != info["sha256"]):
                 return False
     return all((root / p).is_file() for p in entry.get("pictures", []))
 
 
-def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str, has_cells: bool) -> dict:
+def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str,
+                 has_cells: bool) -> dict:
     schema = schema_for(cfg, has_cells)
     stats_columns = [f.name for f in schema if f.name in KNOWN_FACTS or f.name in
                      ("board_id", "split", "config", "redistributable", "seed", "grid_size")]
     out_dir = stage / config
     out_dir.mkdir(parents=True, exist_ok=True)
     chunks: list[Path] = []
-    writer = None
+    writer: pq.ParquetWriter | None = None
     buffer: list[dict] = []
     buffer_bytes = shard_bytes = 0
     rows = raw_total = 0
@@ -110,10 +135,11 @@ def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str, ha
         buffer, buffer_bytes = [], 0
 
     for row, raw in iter_rows(root, config, cfg, split, has_cells):
-        size = sum(len(row[c] or "") for c in ("board", "project", "custom_rules", "reference"))
+        size = sum(len(row[c] or "") for c in TEXT_COLUMNS)
         size += sum(len(f["text"] or "") for f in row["other_files"])
         if shard_bytes and shard_bytes + size > SHARD_BYTES:
             flush()
+            assert writer is not None  # shard_bytes > 0: something was written
             writer.close()
             writer, shard_bytes = None, 0
         buffer.append(row)
@@ -132,58 +158,82 @@ def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str, ha
     for k, chunk in enumerate(chunks):
         final = out_dir / shard_name(split, k, len(chunks))
         os.replace(chunk, final)
-        shards[f"{config}/{final.name}"] = {"sha256": sha256_file(final), "bytes": final.stat().st_size}
+        shards[f"{config}/{final.name}"] = {"sha256": sha256_file(final),
+                                            "bytes": final.stat().st_size}
     return {"rows": rows, "shards": shards, "raw_bytes": raw_total,
             "parquet_bytes": sum(s["bytes"] for s in shards.values())}
 
 
-def _stage_pictures(root: Path, stage: Path, config: str, cfg: dict, previews: int) -> tuple[list[str], list[str]]:
-    splits = cfg.get("splits", {})
-    hist_splits = ["full"] if "full" in splits else list(splits)
-    pads = [board_fact(b, "n_pads") for s in hist_splits for b in splits[s].get("boards", {}).values()
-            if board_fact(b, "n_pads") is not None]
-    rel_dir = f"{PICTURES_DIR}/{config}"
-    made, notes = [], []
-    if pads:
-        title = f"{config}: pad count per board ({', '.join(hist_splits)}, {len(pads)} boards)"
-        write_file(stage / rel_dir / "pads.svg", pictures.histogram_svg({config: pads}, title))
-        made.append(f"{rel_dir}/pads.svg")
-    preview_split = "test" if "test" in splits else (sorted(splits, key=split_key) or [None])[0]
-    if preview_split is None or previews <= 0:
-        return made, notes
-    boards = [(bid, board_fact(b, "n_pads") or 0) for bid, b in splits[preview_split].get("boards", {}).items()
-              if is_redistributable(b)]
-    for board_id in pictures.pick_previews(boards, previews):
-        folder = root / config / preview_split / board_id
-        source = folder / "reference.kicad_pcb"
-        if not source.is_file():
-            source = folder / "board.kicad_pcb"
-        rel = f"{rel_dir}/{board_id}.svg"
-        problem = pictures.render_preview(source, stage / rel)
+def _stage_pictures(root: Path, stage: Path, config: str, cfg: dict, previews: int,
+                    renderer: pictures.PreviewRenderer) -> tuple[list[str], list[str]]:
+    made = _stage_histogram(stage, config, cfg)
+    jobs, rels = [], []
+    for board_id, source in _preview_sources(root, config, cfg, previews):
+        rels.append(f"{PICTURES_DIR}/{config}/{board_id}.svg")
+        jobs.append((source, stage / rels[-1]))
+    notes = []
+    for rel, problem in zip(rels, renderer.render(jobs), strict=True):
         if problem:
-            notes.append(f"{config}/{board_id}: no preview ({problem})")
+            notes.append(f"{config}/{Path(rel).stem}: no preview ({problem})")
         else:
             made.append(rel)
     return made, notes
 
 
+def _stage_histogram(stage: Path, config: str, cfg: dict) -> list[str]:
+    splits = cfg.get("splits", {})
+    hist_splits = ["full"] if "full" in splits else list(splits)
+    pads = [board_fact(b, "n_pads") for s in hist_splits
+            for b in splits[s].get("boards", {}).values() if board_fact(b, "n_pads") is not None]
+    if not pads:
+        return []
+    rel = f"{PICTURES_DIR}/{config}/pads.svg"
+    title = f"{config}: pad count per board ({', '.join(hist_splits)}, {len(pads)} boards)"
+    write_file(stage / rel, pictures.histogram_svg({config: pads}, title))
+    return [rel]
+
+
+def _preview_sources(root: Path, config: str, cfg: dict, previews: int) -> list[tuple[str, Path]]:
+    """(board id, file to render) of the boards previewed on the card: the reference routing
+    when there is one, else the task."""
+    splits = cfg.get("splits", {})
+    preview_split = "test" if "test" in splits else (sorted(splits, key=split_key) or [None])[0]
+    if preview_split is None or previews <= 0:
+        return []
+    boards = [(bid, board_fact(b, "n_pads") or 0)
+              for bid, b in splits[preview_split].get("boards", {}).items()
+              if is_redistributable(b)]
+    out = []
+    for board_id in pictures.pick_previews(boards, previews):
+        folder = board_dir(root, config, preview_split, board_id)
+        source = folder / REFERENCE_FILE
+        out.append((board_id, source if source.is_file() else folder / BOARD_FILE))
+    return out
+
+
 def _d3_tier_histogram(manifest: dict, stage: Path) -> list[str]:
-    tiers = {}
-    for config in ("d3-a", "d3-b", "d3-c"):
+    """One histogram of the D3 tiers' pad counts, with the tier boundaries of the recipe the
+    set was built with."""
+    tiers, parameters = {}, None
+    for config in D3_TIERS.values():
         cfg = manifest["configs"].get(config)
         if not cfg:
             continue
+        parameters = parameters or cfg.get("parameters")
         split = "full" if "full" in cfg.get("splits", {}) else None
         boards = [b for s, e in cfg.get("splits", {}).items() if split in (None, s)
                   for b in e.get("boards", {}).values()]
-        tiers[config] = [board_fact(b, "n_pads") for b in boards if board_fact(b, "n_pads") is not None]
+        tiers[config] = [board_fact(b, "n_pads") for b in boards
+                         if board_fact(b, "n_pads") is not None]
     if not any(tiers.values()):
         return []
+    a, b, c = D3_TIERS["A"], D3_TIERS["B"], D3_TIERS["C"]
     boundaries = []
-    if tiers.get("d3-a") and (tiers.get("d3-b") or tiers.get("d3-c")):
-        boundaries.append((max(tiers["d3-a"]) + 0.5, "A | B"))
-    if tiers.get("d3-b") or tiers.get("d3-c"):
-        boundaries.append((100.5, "B | C (100 pads)"))
+    if tiers.get(a) and (tiers.get(b) or tiers.get(c)):
+        boundaries.append((max(tiers[a]) + 0.5, "A | B"))
+    if tiers.get(b) or tiers.get(c):
+        b_max_pads = tier_rules(parameters)[0].b_max_pads
+        boundaries.append((b_max_pads + 0.5, f"B | C ({b_max_pads} pads)"))
     total = sum(len(v) for v in tiers.values())
     svg = pictures.histogram_svg({k: v for k, v in tiers.items() if v},
                                  f"D3: pad count per board by tier ({total} boards)", boundaries)
@@ -192,8 +242,8 @@ def _d3_tier_histogram(manifest: dict, stage: Path) -> list[str]:
     return [rel]
 
 
-def publish_set(root: str | Path, configs: list[str] | None = None, *, previews: int = DEFAULT_PREVIEWS,
-                force: bool = False, log=None) -> None:
+def publish_set(root: str | Path, configs: list[str] | None = None, *,
+                previews: int = DEFAULT_PREVIEWS, force: bool = False, log=None) -> None:
     """Writes parquet shards, pictures and the card for the configs of `root`'s manifest.
 
     `configs` are (re)written even when up to date; the other configs of the manifest are
@@ -217,23 +267,30 @@ def publish_set(root: str | Path, configs: list[str] | None = None, *, previews:
             todo = [c for c in sorted(known, key=config_key)
                     if force or c in (configs or []) or not _up_to_date(root, manifest, c, state)]
             staged = {}
-            for config in todo:
-                cfg = manifest["configs"][config]
-                has_cells = cfg.get("family") == "d1" and any(
-                    (root / config / f"{s}.npz").is_file() for s in cfg.get("splits", {}))
-                splits = {}
-                for split in sorted(cfg.get("splits", {}), key=split_key):
-                    say(f"publishing {config}/{split}")
-                    splits[split] = _write_split(root, stage, config, cfg, split, has_cells)
-                made, notes = _stage_pictures(root, stage, config, cfg, previews)
-                for note in notes:
-                    say(note)
-                staged[config] = {"fingerprint": fingerprint(manifest, config), "splits": splits,
-                                  "pictures": made}
+            with pictures.PreviewRenderer() as renderer:
+                for config in todo:
+                    staged[config] = _stage_config(root, stage, manifest, config, previews,
+                                                   renderer, say)
             extra = _d3_tier_histogram(manifest, stage)
             _commit(root, stage, manifest, state, staged, extra)
         finally:
             shutil.rmtree(stage, ignore_errors=True)
+
+
+def _stage_config(root: Path, stage: Path, manifest: dict, config: str, previews: int,
+                  renderer: pictures.PreviewRenderer, say) -> dict:
+    """Writes one config's shards and pictures into the staging folder; returns its state."""
+    cfg = manifest["configs"][config]
+    # split arrays (D1's Connector arrays) become the cell columns
+    has_cells = any(arrays_path(root, config, s).is_file() for s in cfg.get("splits", {}))
+    splits = {}
+    for split in sorted(cfg.get("splits", {}), key=split_key):
+        say(f"publishing {config}/{split}")
+        splits[split] = _write_split(root, stage, config, cfg, split, has_cells)
+    made, notes = _stage_pictures(root, stage, config, cfg, previews, renderer)
+    for note in notes:
+        say(note)
+    return {"fingerprint": fingerprint(manifest, config), "splits": splits, "pictures": made}
 
 
 def _remove_published(root: Path, config: str) -> None:
@@ -245,7 +302,8 @@ def _remove_published(root: Path, config: str) -> None:
     shutil.rmtree(root / PICTURES_DIR / config, ignore_errors=True)
 
 
-def _commit(root: Path, stage: Path, manifest: dict, state: dict, staged: dict, extra: list[str]) -> None:
+def _commit(root: Path, stage: Path, manifest: dict, state: dict, staged: dict,
+            extra: list[str]) -> None:
     # From here until the real card is written the set is "being published": a stub card that
     # `load`, `verify` and `datasets` all refuse (so an interrupted commit never looks complete).
     write_file(root / CARD_NAME, STUB_CARD)
@@ -265,7 +323,7 @@ def _commit(root: Path, stage: Path, manifest: dict, state: dict, staged: dict, 
         if old not in extra:
             (root / old).unlink(missing_ok=True)
     state["pictures"] = extra
-    write_file(root / STATE_NAME, json.dumps(state, indent=1, sort_keys=True) + "\n")
+    write_file(root / STATE_NAME, canonical_json(state))
     attribution = attribution_markdown(manifest)
     if attribution is None:
         (root / ATTRIBUTION_NAME).unlink(missing_ok=True)

@@ -15,14 +15,13 @@ from pathlib import Path
 from pcbdata.errors import UserError
 from pcbdata.manifest import MANIFEST_NAME, read_manifest
 from pcbdata.publish.card import read_card_configs
-from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, PICTURES_DIR, STATE_NAME,
-                                    config_key)
+from pcbdata.publish.layout import ATTRIBUTION_NAME, CARD_NAME, PICTURES_DIR, STATE_NAME, config_key
 from pcbdata.publish.verify import verify_published
+from pcbdata.tree import D3_TABLES, arrays_name
 
 # Tables the D3 build writes next to the boards (attribution, characteristics, curation report,
 # the collection's licence notice): uploaded when present.
-EXTRA_TOP_FILES = ("attribution.csv", "attribution.json", "LICENSE-PCBench", "characteristics.csv",
-                   "curation_report.csv", "curation_report.json")
+EXTRA_TOP_FILES = D3_TABLES
 _REPO_RE = re.compile(r"^[A-Za-z0-9][\w.-]*/[\w.-]+$")
 
 
@@ -34,7 +33,7 @@ def files_to_push(root: Path) -> list[str]:
     for config in sorted(card, key=config_key):
         for split, shards in card[config].items():
             out += shards
-            npz = f"{config}/{split}.npz"
+            npz = f"{config}/{arrays_name(split)}"
             if (root / npz).is_file():
                 out.append(npz)
     pictures = root / PICTURES_DIR
@@ -88,7 +87,9 @@ def push(root: str | Path, repo: str, tags: list[str] | None = None, dry_run: bo
     except Exception as exc:  # noqa: BLE001 - network, auth and Hub errors: one clear line
         first = str(exc).splitlines()[0] if str(exc) else ""
         raise UserError(f"cannot push to the Hugging Face Hub ({repo}): {type(exc).__name__}: "
-                        f"{first[:300]} (check the network and `hf auth login`; re-running resumes)") from None
-    say(f"uploaded {len(files)} files ({total / 1e6:.1f} MB) to https://huggingface.co/datasets/{repo}; "
+                        f"{first[:300]} (check the network and `hf auth login`; re-running "
+                        f"resumes)") from None
+    say(f"uploaded {len(files)} files ({total / 1e6:.1f} MB) to "
+        f"https://huggingface.co/datasets/{repo}; "
         f"tags: {', '.join(tags)}")
     return files

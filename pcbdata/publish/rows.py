@@ -4,7 +4,8 @@ One row per board. Columns, in order:
 
 - identity: `config`, `split`, `board_id`, `family`, `set_version`;
 - facts: `n_nets`, `n_pads`, `n_components`, `n_layers`, `routing_layers`, `width_mm`,
-  `height_mm`, then every other per-board fact of the manifest (D3: name, source, licence, ...),
+  `height_mm` (`pcbdata.manifest.BOARD_FACTS`, read with `board_fact` whichever family wrote
+  the entry), then every other per-board fact of the manifest (D3: name, source, licence, ...),
   nested tables flattened to `outer_inner`, lists as JSON text;
 - `redistributable` (False: a recipe row, whose file texts are null and whose hashes let
   `pcbdata build d3` restore and check the board);
@@ -16,6 +17,7 @@ One row per board. Columns, in order:
 """
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 
@@ -23,32 +25,19 @@ import numpy as np
 import pyarrow as pa
 
 from pcbdata.errors import UserError
-from pcbdata.fsutil import sha256_bytes
+from pcbdata.hashing import sha256_bytes
+from pcbdata.manifest import BOARD_FACTS, D3_FACT_NAMES, board_fact
 from pcbdata.publish.layout import FILE_COLUMNS
+from pcbdata.tree import arrays_path, board_dir
 
-KNOWN_FACTS = {
-    "n_nets": pa.int64(), "n_pads": pa.int64(), "n_components": pa.int64(),
-    "n_layers": pa.int64(), "routing_layers": pa.int64(),
-    "width_mm": pa.float64(), "height_mm": pa.float64(),
-}
-# Names the D3 curation uses for the same facts (its characteristics table's columns).
-FACT_ALIASES = {"n_nets": "nets", "n_pads": "pads", "n_components": "components",
-                "n_layers": "layers"}
+_FLOAT_FACTS = {"width_mm", "height_mm"}
+KNOWN_FACTS = {name: pa.float64() if name in _FLOAT_FACTS else pa.int64() for name in BOARD_FACTS}
 _RESERVED = {"config", "split", "board_id", "family", "set_version", "redistributable",
              "parameters", "seed", "grid_size", "starts", "targets", "other_files", "files",
              *KNOWN_FACTS, *(c for pair in FILE_COLUMNS.values() for c in pair)}
-_ALIAS_OF = {alias: key for key, alias in FACT_ALIASES.items()}
 OTHER_FILE_TYPE = pa.struct([("name", pa.string()), ("text", pa.large_string()),
                              ("sha256", pa.string())])
 CELLS_TYPE = pa.list_(pa.list_(pa.int32()))
-
-
-def board_fact(entry: dict, key: str):
-    """A standard per-board fact (n_pads, ...) under its own name or the D3 curation's alias."""
-    value = entry.get(key)
-    if value is None and key in FACT_ALIASES:
-        value = entry.get(FACT_ALIASES[key])
-    return value
 
 
 def is_redistributable(entry: dict) -> bool:
@@ -67,8 +56,8 @@ def _flat_facts(entry: dict) -> dict:
     for key, value in entry.items():
         if key in ("files", "redistributable") or key in KNOWN_FACTS:
             continue
-        if key in FACT_ALIASES.values() and board_fact(entry, _ALIAS_OF[key]) == value:
-            continue  # published as the standard column
+        if key in D3_FACT_NAMES.values():
+            continue  # a fact of BOARD_FACTS stored under its D3 name: a standard column
         if isinstance(value, dict):
             for sub, subvalue in value.items():
                 if sub == "redistributable":
@@ -117,15 +106,13 @@ def _decode(data: bytes, where: Path) -> str:
 
 def read_cells(root: Path, config: str, split: str, split_entry: dict) -> dict | None:
     """D1: board_id -> (starts, targets) from `<config>/<split>.npz`, checked against its hash."""
-    path = root / config / f"{split}.npz"
+    path = arrays_path(root, config, split)
     if not path.is_file():
         return None
     expected = (split_entry.get("arrays") or {}).get(path.name)
     data = path.read_bytes()
     if expected and sha256_bytes(data) != expected:
         raise UserError(f"{path}: sha256 differs from the manifest; rebuild the set")
-    import io
-
     with np.load(io.BytesIO(data), allow_pickle=False) as arrays:
         ids = [str(b) for b in arrays["board_ids"]]
         starts = np.asarray(arrays["starts"], dtype=np.int32)
@@ -168,7 +155,7 @@ def iter_rows(root: Path, config: str, config_entry: dict, split: str, has_cells
     extra_types = config_fact_types(config_entry)
     for board_id in sorted(split_entry.get("boards", {})):
         entry = split_entry["boards"][board_id]
-        folder = root / config / split / board_id
+        folder = board_dir(root, config, split, board_id)
         publish_text = is_redistributable(entry)
         row = {"config": config, "split": split, "board_id": board_id,
                "family": config_entry.get("family"), "set_version": config_entry.get("set_version"),
@@ -208,7 +195,7 @@ def iter_rows(root: Path, config: str, config_entry: dict, split: str, has_cells
             raise UserError(f"{config}/{split}/{board_id}: the manifest lists no board.kicad_pcb")
         if has_cells:
             if cells is None or board_id not in cells:
-                raise UserError(f"{root / config / f'{split}.npz'}: no Connector arrays for "
+                raise UserError(f"{arrays_path(root, config, split)}: no Connector arrays for "
                                 f"{board_id}; rebuild the set")
             row["grid_size"] = grid
             row["starts"], row["targets"] = cells[board_id]

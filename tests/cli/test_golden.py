@@ -9,7 +9,8 @@ def test_every_preset_reproduces_its_golden_boards():
     current = current_hashes()
     assert sorted(current) == sorted(golden)
     for config, data in golden.items():
-        changed = [path for path, sha in data["files"].items() if current[config]["files"].get(path) != sha]
+        changed = [path for path, sha in data["files"].items()
+                   if current[config]["files"].get(path) != sha]
         assert not changed, (
             f"{config}: {len(changed)} generated files changed (first: {changed[0]}). If intended, "
             f"bump the preset version and run `python -m tests.golden_boards`.")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from pcbdata.fsutil import sha256_file
+from pcbdata.hashing import sha256_file
 from tests.curation.corpus_fixture import EXPECTED_FATES, LEGACY
 
 REPO = Path(__file__).resolve().parents[2]

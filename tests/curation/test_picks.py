@@ -1,17 +1,27 @@
 """Characteristics order, tiers and evaluation picks against hand-computed cases."""
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from pcbdata.curation.picks import Row, apply_replacements, array_split, assign_tiers, \
-    evaluation_subsets, number_rows, picks
-from pcbdata.curation.recipe import load_recipe, parse_recipe
+from pcbdata.curation.picks import (
+    Row,
+    apply_replacements,
+    array_split,
+    assign_tiers,
+    evaluation_subsets,
+    number_rows,
+    picks,
+)
+from pcbdata.curation.recipe import Override, load_recipe, parse_recipe
 
 
 def rows(spec):
     """spec: list of (name, pads, nets, components, layers)."""
-    return [Row(name=n, pads=p, nets=k, components=c, layers=l) for n, p, k, c, l in spec]
+    return [Row(name=n, pads=p, nets=k, components=c, layers=layers)
+            for n, p, k, c, layers in spec]
 
 
 @pytest.mark.parametrize("n", range(0, 23))
@@ -34,8 +44,15 @@ def test_tiers_first_rows_then_pad_threshold():
     assert [r.name for r in tiers["A"]] == ["x1", "x2", "x3"]
     assert [r.name for r in tiers["B"]] == ["x4", "x5"]
     assert [r.name for r in tiers["C"]] == ["x6", "x7", "x8"]
-    # a small pad count after the first rows still goes by the threshold (here none)
-    assert all(r.tier == "C" for r in tiers["C"])
+    assert [r.tier for r in table] == ["A"] * 3 + ["B"] * 2 + ["C"] * 3
+
+
+def test_tier_a_takes_the_first_rows_whatever_their_pads():
+    table = number_rows(rows([(f"x{i}", i, 1, 1, 2) for i in range(1, 9)]))
+    tiers = assign_tiers(table, a_size=6, b_max_pads=2)  # A reaches past the B/C threshold
+    assert [r.name for r in tiers["A"]] == ["x1", "x2", "x3", "x4", "x5", "x6"]
+    assert tiers["B"] == [] and [r.name for r in tiers["C"]] == ["x7", "x8"]
+    assert [r.tier for r in table] == ["A"] * 6 + ["C"] * 2
 
 
 def test_picks_bins_and_lower_median():
@@ -74,14 +91,18 @@ def test_fewer_boards_than_bins_takes_each_board():
 def test_replacement_override_applies_only_to_a_computed_pick_in_the_tier():
     tier = rows([("p", 1, 1, 1, 2), ("q", 1, 1, 1, 2), ("r", 2, 1, 1, 2)])
     chosen = [tier[0]]
-    o = {"kind": "replace_pick", "config": "d3-b", "board": "p", "replacement": "q",
-         "reason": "t"}
+    o = Override(kind="replace_pick", config="d3-b", board="p", replacement="q", reason="t")
     out, notes = apply_replacements(chosen, tier, "d3-b", [o])
     assert [r.name for r in out] == ["q"] and notes[0]["applied"]
-    out, notes = apply_replacements(chosen, tier, "d3-b", [{**o, "board": "r"}])
+    assert notes[0] == {"kind": "replace_pick", "config": "d3-b", "board": "p",
+                        "replacement": "q", "reason": "t", "applied": True, "why": ""}
+    out, notes = apply_replacements(chosen, tier, "d3-b", [replace(o, board="r")])
     assert [r.name for r in out] == ["p"] and not notes[0]["applied"]
-    out, notes = apply_replacements(chosen, tier, "d3-b", [{**o, "replacement": "nope"}])
-    assert not notes[0]["applied"]
+    assert notes[0]["why"] == "board is not a computed pick"
+    out, notes = apply_replacements(chosen, tier, "d3-b", [replace(o, replacement="nope")])
+    assert not notes[0]["applied"] and notes[0]["why"] == "replacement is not in the tier"
+    out, notes = apply_replacements([tier[0], tier[1]], tier, "d3-b", [o])
+    assert notes[0]["why"] == "replacement is already a pick"
     assert apply_replacements(chosen, tier, "d3-c", [o]) == (chosen, [])
 
 
@@ -103,7 +124,8 @@ def test_published_replacement_in_its_bin():
     recipe = load_recipe()
     # 20 boards in B, 10 bins of 2, lower median = first of each bin; badge is the first of
     # bin 0 and cat-trainer the second (same pads, more nets) -> cat-trainer replaces it
-    spec = [("badge2016_Badge_init", 93, 20, 650, 2), ("cat-trainer_teensy_base_pcb", 93, 26, 28, 2)]
+    spec = [("badge2016_Badge_init", 93, 20, 650, 2),
+            ("cat-trainer_teensy_base_pcb", 93, 26, 28, 2)]
     spec += [(f"b{i:02d}", 94 + i, 1, 1, 2) for i in range(18)]
     table = number_rows(rows(spec))
     subsets, notes = evaluation_subsets({"A": [], "B": table, "C": []}, recipe)

@@ -5,8 +5,8 @@ import json
 
 import pytest
 
-from pcbdata.curation.projectfile import default_clearance, dumps_project, patch_project
 from pcbdata.curation.recipe import load_recipe
+from pcbdata.kicad.projectfile import default_clearance, dumps_project, patch_project
 
 SPEC_IGNORED = {"solder_mask_bridge", "drill_out_of_range", "malformed_courtyard",
                 "courtyards_overlap", "annular_width", "copper_edge_clearance",
@@ -26,22 +26,22 @@ def project(clearance=0.2, severities=None):
 
 def test_packaged_recipe_holds_the_spec_numbers():
     r = load_recipe()
-    assert set(r["compat"]["ignore_severities"]) == SPEC_IGNORED
-    assert r["compat"]["rules"] == {"min_via_annular_width": 0.0,
-                                    "min_copper_edge_clearance": 0.0, "min_hole_clearance": 0.0}
-    assert r["compat"]["min_hole_to_hole_cap"] == 0.25
-    assert (r["tiers"]["a_size"], r["tiers"]["b_max_pads"]) == (100, 100)
-    assert (r["picks"]["bins"], r["picks"]["layers"], r["picks"]["c_trim_fraction"]) == (10, 2, 0.1)
-    assert r["engine"]["kicad_version"] == "9.0.8"
-    kinds = {(o["kind"], o["board"]) for o in r["overrides"]}
+    assert set(r.compat.ignore_severities) == SPEC_IGNORED
+    assert r.compat.rules == {"min_via_annular_width": 0.0,
+                              "min_copper_edge_clearance": 0.0, "min_hole_clearance": 0.0}
+    assert r.compat.min_hole_to_hole_cap == 0.25
+    assert (r.tiers.a_size, r.tiers.b_max_pads) == (100, 100)
+    assert (r.picks.bins, r.picks.layers, r.picks.c_trim_fraction) == (10, 2, 0.1)
+    assert r.engine.kicad_version == "9.0.8"
+    kinds = {(o.kind, o.board) for o in r.all_overrides}
     assert kinds == {("exclude_from_test", "karabas-nano_wifi_revA"),
                      ("replace_pick", "badge2016_Badge_init")}
-    assert all(o["reason"].strip() for o in r["overrides"])
+    assert all(o.reason.strip() for o in r.all_overrides)
     assert len(r.sha256) == 64 and r.version
 
 
 def test_patch_sets_severities_and_rules():
-    compat = load_recipe()["compat"]
+    compat = load_recipe().compat.as_table()
     out = patch_project(project(0.2), compat)
     ds = out["board"]["design_settings"]
     assert {k for k, v in ds["rule_severities"].items() if v == "ignore"} == SPEC_IGNORED
@@ -56,7 +56,7 @@ def test_patch_sets_severities_and_rules():
 
 
 def test_patch_does_not_touch_its_input_and_is_canonical():
-    compat = load_recipe()["compat"]
+    compat = load_recipe().compat.as_table()
     before = project(0.2)
     snapshot = json.dumps(before, sort_keys=True)
     text = dumps_project(patch_project(before, compat))
@@ -66,7 +66,7 @@ def test_patch_does_not_touch_its_input_and_is_canonical():
 
 @pytest.mark.parametrize("clearance", [0, 0.0, None, ...])
 def test_missing_clearance_becomes_the_observed_spacing(clearance):
-    compat = load_recipe()["compat"]
+    compat = load_recipe().compat.as_table()
     p = project(clearance)
     assert default_clearance(p) is None
     out = patch_project(p, compat, observed_spacing=0.127)
@@ -77,12 +77,12 @@ def test_missing_clearance_becomes_the_observed_spacing(clearance):
 
 
 def test_stored_clearance_wins_over_observed_spacing():
-    out = patch_project(project(0.2), load_recipe()["compat"], observed_spacing=0.1)
+    out = patch_project(project(0.2), load_recipe().compat.as_table(), observed_spacing=0.1)
     assert default_clearance(out) == 0.2
 
 
 def test_revalidation_skips_only_warning_checks():
-    from pcbdata.kicad.upgrade import check_project
+    from pcbdata.kicad.projectfile import check_project
 
     p = project(0.2, severities={"silk_overlap": "warning", "starved_thermal": "error",
                                  "clearance": "error"})
@@ -97,6 +97,22 @@ def test_revalidation_skips_only_warning_checks():
 def test_packaged_skip_list_has_no_error_default_check_left_unguarded():
     # the verdict checks are never in the list (check_project guards the rest: a listed check
     # the project makes an error, e.g. starved_thermal by KiCad 9 default, still runs)
-    skip = load_recipe()["keep"]["skip_warning_checks"]
+    skip = load_recipe().keep.skip_warning_checks
     assert "clearance" not in skip and "unconnected_items" not in skip
     assert "shorting_items" not in skip
+
+
+@pytest.mark.parametrize("edit, message", [
+    (("b_max_pads = 100", 'b_max_pads = "many"'), r"\[tiers\] b_max_pads must be int"),
+    (("max_errors = 0", "max_errors = 0.5"), r"\[keep\] max_errors must be int"),
+    (("spacing_probe_mm = 2.0", "spacing_probe_mm = true"), "spacing_probe_mm must be float"),
+    (("bins = 10\n", ""), r"\[picks\] lacks bins"),
+])
+def test_the_typed_recipe_names_a_missing_or_mistyped_key(edit, message):
+    from pcbdata.curation.recipe import parse_recipe
+    from pcbdata.errors import UserError
+
+    raw = load_recipe().text.decode()
+    assert edit[0] in raw
+    with pytest.raises(UserError, match=message):
+        parse_recipe(raw.replace(edit[0], edit[1], 1).encode(), "bad.toml")

@@ -102,7 +102,7 @@ def test_real_subset_reports_the_seven_missing_boards(real_subset):
 
 @pytest.mark.slow
 def test_real_subset_manifest_lists_every_file(real_subset):
-    from pcbdata.fsutil import sha256_file
+    from pcbdata.hashing import sha256_file
 
     out = real_subset["out"]
     manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
@@ -128,7 +128,8 @@ def test_real_subset_boards_match_the_released_d3_manifests(real_subset):
 
     released = {}
     for config in ("d3-a", "d3-b", "d3-c"):
-        data = json.loads(gzip.decompress((REPO_ROOT / "pcbdata" / "resources" / "releases" / f"{config}.json.gz").read_bytes()))
+        release = REPO_ROOT / "pcbdata" / "resources" / "releases" / f"{config}.json.gz"
+        data = json.loads(gzip.decompress(release.read_bytes()))
         for board in data["configs"][config]["splits"]["full"]["boards"].values():
             released[board["name"]] = board["files"]
     built = json.loads((real_subset["out"] / "manifest.json").read_text())

@@ -6,8 +6,8 @@ import json
 import shutil
 
 import pytest
-
 from boards import ROUTE_A, ROUTE_B, base_board, pad, routed, track, write_board, write_instance
+
 from pcbdata.cli import main
 
 

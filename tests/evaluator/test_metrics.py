@@ -6,10 +6,20 @@ import math
 import pytest
 
 from pcbdata.evaluator.integrity import integrity_problems
-from pcbdata.evaluator.metrics import (NO_NET, Weights, counted_violations, drc_penalty,
-                                       is_counted, pick_best, potential, routability,
-                                       rollout_metrics, selection_key, unconnected_count,
-                                       violations_per_net)
+from pcbdata.evaluator.metrics import (
+    NO_NET,
+    Weights,
+    counted_violations,
+    drc_penalty,
+    is_counted,
+    pick_best,
+    potential,
+    rollout_metrics,
+    routability,
+    selection_key,
+    unconnected_count,
+    violations_per_net,
+)
 from pcbdata.evaluator.runs import board_row, markdown_table, natural_key, summarize
 
 

@@ -6,11 +6,11 @@ import shlex
 import sys
 
 import pytest
-
 from boards import base_board, pad, write_instance
+
+from pcbdata.baselines.specctra import freeroute_available
 from pcbdata.cli import main
 from pcbdata.kicad.specctra import fix_ses_resolution, strip_ses_placement
-from pcbdata.baselines.specctra import freeroute_available
 from pcbdata.specctra_text import flip_back_components, restore_back_placements
 
 DSN = """(pcb x

@@ -5,9 +5,18 @@ import math
 from dataclasses import replace
 
 import pytest
+from boards import (
+    ROUTE_A,
+    ROUTE_B,
+    base_board,
+    pad,
+    routed,
+    track,
+    via,
+    write_board,
+    write_instance,
+)
 
-from boards import (ROUTE_A, ROUTE_B, base_board, pad, routed, track, via, write_board,
-                    write_instance)
 from pcbdata.board import Arc, mm_to_nm
 
 # bare board: U0 = 2 (one open edge per net), f0 = 3 ln(1 + 2/2) + 2 ln(1 + 1/2), N = 3

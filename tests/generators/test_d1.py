@@ -7,9 +7,9 @@ import pytest
 
 from pcbdata.board import Via, mm_to_nm
 from pcbdata.connector import connector_arrays, npz_bytes
-from pcbdata.kicad import DrcReport
 from pcbdata.errors import UserError
 from pcbdata.generators import D1Generator, D1Params
+from pcbdata.kicad import DrcReport
 from pcbdata.kicad_writer import board_files
 from tests.helpers import outline_in_file, pads_in_file, write_board
 
@@ -37,7 +37,8 @@ def test_geometry_and_rules_follow_the_spec(grid, tmp_path):
     assert netclass["name"] == "Default"
     assert netclass["clearance"] == netclass["track_width"] == pytest.approx(g / 2)
     assert (netclass["via_diameter"], netclass["via_drill"]) == (0.6, 0.3)
-    assert project["board"]["design_settings"]["rules"]["min_copper_edge_clearance"] == pytest.approx(g / 2)
+    rules = project["board"]["design_settings"]["rules"]
+    assert rules["min_copper_edge_clearance"] == pytest.approx(g / 2)
     assert '(layer "B.Cu")' in (tmp_path / "board.kicad_dru").read_text()
 
 
@@ -70,7 +71,8 @@ def test_generated_boards_pass_drc_with_only_their_unconnected_items(kicad_pool,
     for grid in GRIDS:
         for placement in ("uniform", "random-walk"):
             for index in range(4):
-                board = D1Generator(D1Params(grid=grid, placement=placement)).generate(0, "test", index).board
+                generator = D1Generator(D1Params(grid=grid, placement=placement))
+                board = generator.generate(0, "test", index).board
                 paths.append((str(write_board(tmp_path / f"{grid}-{placement}-{index}", board)),))
     for outcome in kicad_pool.map("pcbdata.kicad.basics:drc", paths):
         report = DrcReport.from_dict(outcome.value)
@@ -88,7 +90,7 @@ def test_random_walk_reference_routing_is_clean_and_fully_connected(grid, kicad_
         instance = _routed_reference(grid, index)
         assert instance.reference is not None and instance.reference.tracks
         assert [p for p in instance.reference.pads] == instance.board.pads
-        for (start, target), net in zip(instance.cells, instance.board.net_names):
+        for start, target in instance.cells:
             assert start != target
         paths.append((str(write_board(tmp_path / str(index), instance.reference)),))
     for outcome in kicad_pool.map("pcbdata.kicad.basics:drc", paths):
@@ -131,8 +133,10 @@ def test_connector_rows_describe_the_same_pins_as_the_boards(tmp_path):
         path = write_board(tmp_path / instance.board_id, instance.board)
         pads = pads_in_file(path)
         for k in range(5):
-            for pad, cell in zip(pads[2 * k: 2 * k + 2], (arrays["starts"][row, k], arrays["targets"][row, k])):
-                assert (pad["x"], pad["y"]) == pytest.approx(((cell[0] + 0.75) * g, (cell[1] + 0.75) * g))
+            cells = (arrays["starts"][row, k], arrays["targets"][row, k])
+            for pad, cell in zip(pads[2 * k: 2 * k + 2], cells):
+                centre = ((cell[0] + 0.75) * g, (cell[1] + 0.75) * g)
+                assert (pad["x"], pad["y"]) == pytest.approx(centre)
                 assert pad["net"] == f"NET{k + 1}"
     assert npz_bytes(connector_arrays([x.board_id for x in instances], [x.cells for x in instances],
                                       grid, "test-version")) == data

@@ -18,7 +18,8 @@ def test_each_board_is_checked_with_its_own_project_in_a_long_lived_worker(kicad
     tight = write_board(tmp_path / "tight", _two_pads(1.5))
     paths = [(str(p),) for p in (loose, tight, loose, tight, loose, tight)]
     outcomes = sorted(kicad_pool.map("pcbdata.kicad.basics:drc", paths), key=lambda o: o.index)
-    counts = [DrcReport.from_dict(o.value).counts_by_type(include_unconnected=False) for o in outcomes]
+    counts = [DrcReport.from_dict(o.value).counts_by_type(include_unconnected=False)
+              for o in outcomes]
     assert counts == [{}, {"clearance": 1}] * 3
 
 

@@ -8,9 +8,10 @@ from pathlib import Path
 import numpy as np
 
 from pcbdata import kicad_writer, presets
-from pcbdata.fsutil import sha256_bytes, write_atomic
+from pcbdata.fsutil import write_atomic
 from pcbdata.generators.d1 import D1Generator, D1Params
 from pcbdata.generators.d2 import D2Generator
+from pcbdata.hashing import sha256_bytes
 from pcbdata.manifest import FORMAT, write_manifest
 
 SIZES = {"train": 4, "validation": 2, "test": 3}
@@ -34,7 +35,8 @@ def _d2_config(root: Path, sizes: dict[str, int]) -> dict:
         boards = {}
         for index in range(count):
             inst = gen.generate(level.seed, split, index)
-            files = _write_board(root / "d2" / split / inst.board_id, kicad_writer.board_files(inst.board))
+            files = _write_board(root / "d2" / split / inst.board_id,
+                                 kicad_writer.board_files(inst.board))
             boards[inst.board_id] = {"files": files, **inst.facts(gen.routing_layers)}
         splits[split] = {"count": count, "kicad_checked": False, "boards": boards}
     return {"family": "d2", "set_version": level.version, "parameters": level.params.as_dict(),
@@ -50,13 +52,15 @@ def _d1_config(root: Path, grid: int, sizes: dict[str, int]) -> dict:
         boards, starts, targets, ids = {}, [], [], []
         for index in range(count):
             inst = gen.generate(0, split, index)
-            files = _write_board(root / config / split / inst.board_id, kicad_writer.board_files(inst.board))
+            files = _write_board(root / config / split / inst.board_id,
+                                 kicad_writer.board_files(inst.board))
             boards[inst.board_id] = {"files": files, **inst.facts(gen.routing_layers)}
             ids.append(inst.board_id)
             starts.append([list(s) for s, _ in inst.cells])
             targets.append([list(t) for _, t in inst.cells])
         buf = io.BytesIO()
-        np.savez(buf, starts=np.array(starts, dtype=np.int32), targets=np.array(targets, dtype=np.int32),
+        np.savez(buf, starts=np.array(starts, dtype=np.int32),
+                 targets=np.array(targets, dtype=np.int32),
                  board_ids=np.array(ids), grid_size=np.int32(grid), num_agents=np.int32(5),
                  connector_version=np.array("test"))
         write_atomic(root / config / f"{split}.npz", buf.getvalue())
@@ -86,7 +90,8 @@ def _d3_config(root: Path, config: str, count: int = 4) -> dict:
         entry = {"files": entry_files, "name": name, "row": index + 1, "pads": facts["n_pads"],
                  "nets": facts["n_nets"], "components": facts["n_components"], "layers": 2,
                  "source_board_sha256": "ab" * 32,
-                 "source_repository": f"https://github.com/example/{name}", "author": f"Author {index}",
+                 "source_repository": f"https://github.com/example/{name}",
+                 "author": f"Author {index}",
                  "licence": "CC-BY-4.0" if index != 2 else "unknown",
                  "redistributable": index != 2, "compat_board_identical": True}
         full[board_id] = entry
@@ -96,7 +101,7 @@ def _d3_config(root: Path, config: str, count: int = 4) -> dict:
             "recipe": {"name": "test-recipe", "version": "1.0.0", "sha256": "cd" * 32},
             "parameters": {"recipe": "test-recipe", "tier": config}, "kicad_version": "9.0.8",
             "splits": {"test": {"count": len(test), "kicad_checked": False, "boards": test},
-                                     "full": {"count": len(full), "kicad_checked": False, "boards": full}}}
+                       "full": {"count": len(full), "kicad_checked": False, "boards": full}}}
 
 
 def make_set(root: Path, d2: dict | None = None, d1: dict | None = None, d3: bool = True) -> dict:

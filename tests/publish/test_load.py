@@ -32,7 +32,8 @@ def test_every_config_and_split_loads_with_load_dataset(published):
             assert ds.features["project"] == datasets.Value("large_string")
             for row in ds:
                 facts = boards[row["board_id"]]
-                for key in ("n_nets", "n_pads", "n_components", "n_layers", "width_mm", "height_mm"):
+                for key in ("n_nets", "n_pads", "n_components", "n_layers", "width_mm",
+                            "height_mm"):
                     alias = {"n_nets": "nets", "n_pads": "pads", "n_components": "components",
                              "n_layers": "layers"}.get(key)
                     expected = facts.get(key, facts.get(alias))
@@ -56,7 +57,8 @@ def test_card_yaml_has_configs_one_default_licence_and_metadata(published):
         for item in entry["data_files"]:
             for path in item["path"]:
                 assert (published / path).is_file()
-                assert path.startswith(f"{entry['config_name']}/{item['split']}-") and path.endswith(".parquet")
+                assert path.startswith(f"{entry['config_name']}/{item['split']}-")
+                assert path.endswith(".parquet")
     # mixed licences (D3 boards keep theirs): "other" with a link to the attribution table
     assert meta["license"] == "other" and meta["license_link"] == "ATTRIBUTION.md"
     assert "pcb" in meta["tags"] and meta["size_categories"] == ["n<1K"] and meta["pretty_name"]
@@ -69,7 +71,8 @@ def test_card_yaml_has_configs_one_default_licence_and_metadata(published):
     data = DatasetCard.load(published / "README.md").data  # the Hub's own parser accepts it
     assert data.license == "other" and data.pretty_name == meta["pretty_name"]
     assert [c["config_name"] for c in data.configs] == ["d2", "d1-g10", "d3-b"]
-    assert {i["config_name"]: [s["num_examples"] for s in i["splits"]] for i in data.dataset_info} == {
+    infos = data.dataset_info
+    assert {i["config_name"]: [s["num_examples"] for s in i["splits"]] for i in infos} == {
         "d2": [4, 2, 3], "d1-g10": [4, 2, 3], "d3-b": [2, 4]}
     attribution = (published / "ATTRIBUTION.md").read_text()
     assert "https://github.com/example/project_2" in attribution and "recipe" in attribution
@@ -148,7 +151,8 @@ def test_recipe_rows_have_hashes_and_no_text(published):
 
 def test_an_empty_split_verifies_and_loads_as_an_empty_dataset(tmp_path):
     """A small corpus can leave a D3 tier empty: no folders on disk, zero-row shards. `datasets`
-    cannot read a split with no rows, so `pcbdata.load` returns an empty Dataset with the columns."""
+    cannot read a split with no rows, so `pcbdata.load` returns an empty Dataset with the
+    columns."""
     from pcbdata.manifest import write_manifest
     from pcbdata.publish import publish_set
     from pcbdata.verify import verify_set

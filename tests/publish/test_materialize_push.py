@@ -40,16 +40,19 @@ def test_materialize_round_trip_is_byte_identical(published, tmp_path):
 
 def test_materialize_cli_from_shards_with_filters(published, tmp_path, capsys):
     shard = published / "d1-g10" / "test-00000-of-00001.parquet"
-    assert main(["materialize", str(shard), "--out", str(tmp_path / "a"), "--board", "board_00001"]) == 0
+    assert main(["materialize", str(shard), "--out", str(tmp_path / "a"),
+                 "--board", "board_00001"]) == 0
     assert "wrote 1 boards" in capsys.readouterr().out
     folder = tmp_path / "a" / "d1-g10" / "test" / "board_00001"
-    assert filecmp.cmp(folder / "board.kicad_dru", published / "d1-g10/test/board_00001/board.kicad_dru", shallow=False)
+    assert filecmp.cmp(folder / "board.kicad_dru",
+                       published / "d1-g10/test/board_00001/board.kicad_dru", shallow=False)
     assert main(["materialize", str(published), "--config", "d3-b", "--split", "full", "--flat",
                  "--out", str(tmp_path / "b")]) == 0
     out = capsys.readouterr().out
     assert "wrote 3 boards" in out and "skipped 1 recipe rows" in out
     assert (tmp_path / "b" / "0001_project_0" / "reference.kicad_pcb").is_file()
-    assert main(["materialize", str(published), "--config", "d2-default", "--out", str(tmp_path / "c")]) == 2
+    assert main(["materialize", str(published), "--config", "d2-default",
+                 "--out", str(tmp_path / "c")]) == 2
     assert "unknown config 'd2-default'" in capsys.readouterr().err
     assert main(["materialize", str(tmp_path / "nothing"), "--out", str(tmp_path / "c")]) == 2
 
@@ -60,11 +63,13 @@ def test_iter_boards_and_row_helpers(published, tmp_path):
     for board in iter_boards(ds):
         assert board.board_path.is_file() and board.project_path.is_file()
         assert board.reference_path is not None
-        assert board.board_path.read_bytes() == (published / "d3-b/full" / board.board_id / "board.kicad_pcb").read_bytes()
+        original = published / "d3-b/full" / board.board_id / "board.kicad_pcb"
+        assert board.board_path.read_bytes() == original.read_bytes()
         seen.append(board.board_id)
     assert seen == ["0001_project_0", "0002_project_1", "0004_project_3"]
     kept = list(iter_boards("d2", split="validation", root=published, workdir=tmp_path / "keep"))
-    assert [b.folder for b in kept] == [tmp_path / "keep" / "board_00000", tmp_path / "keep" / "board_00001"]
+    assert [b.folder for b in kept] == [tmp_path / "keep" / "board_00000",
+                                        tmp_path / "keep" / "board_00001"]
     assert all(b.board_path.is_file() for b in kept)
     recipe = next(r for r in ds if not r["redistributable"])
     with pytest.raises(UserError, match="recipe row"):

@@ -1,4 +1,5 @@
-"""The committed manifests of released sets (`pcbdata/resources/releases/`) match a rebuild of their small splits:
+"""The committed manifests of released sets (`pcbdata/resources/releases/`) match a rebuild of
+their small splits:
 a change that alters boards, splits or parameters cannot land unnoticed."""
 from __future__ import annotations
 
@@ -6,7 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from pcbdata.cli import main
+from pcbdata.builders import SyntheticOptions, build_configs
+from pcbdata.configs import get_config
 from pcbdata.manifest import read_manifest
 from pcbdata.publish import verify_published
 from pcbdata.publish.manifests import SUFFIX, compare, read_release
@@ -23,19 +25,11 @@ def _config(path: Path) -> str:
 
 @pytest.fixture(scope="module")
 def rebuilt(tmp_path_factory):
-    """The small splits of every released synthetic config, rebuilt (no KiCad checks)."""
+    """The small splits of every released synthetic config, rebuilt from the config registry
+    (no KiCad checks)."""
     root = tmp_path_factory.mktemp("rebuild") / "set"
-    releases = {_config(p): read_release(p) for p in SYNTHETIC}
-    grids = [str(r["configs"][c]["parameters"]["grid"]) for c, r in releases.items()
-             if r["configs"][c]["family"] == "d1"]
-    if grids:
-        assert main(["build", "d1", "--grid", ",".join(grids), "--splits", ",".join(SMALL),
-                     "--no-check", "--workers", "2", "--out", str(root)]) == 0
-    for config, release in releases.items():
-        entry = release["configs"][config]
-        if entry["family"] == "d2":
-            assert main(["build", "d2", "--level", entry["level"], "--splits", ",".join(SMALL),
-                         "--no-check", "--workers", "2", "--out", str(root)]) == 0
+    specs = [get_config(_config(p)) for p in SYNTHETIC]
+    build_configs(root, specs, SyntheticOptions(splits=SMALL, check=False, workers=2))
     return root
 
 

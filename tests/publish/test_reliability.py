@@ -11,7 +11,7 @@ import pytest
 import pcbdata
 from pcbdata.cli import main
 from pcbdata.errors import UserError
-from pcbdata.fsutil import sha256_file
+from pcbdata.hashing import sha256_file
 from pcbdata.manifest import read_manifest, write_manifest
 from pcbdata.publish import publish_set, publisher, verify_published
 from tests.publish.setbuilder import make_set
@@ -56,13 +56,15 @@ def test_missing_card_gives_a_clear_error(published_copy):
         pcbdata.load("d2", root=published_copy)
     problems = verify_published(published_copy, read_manifest(published_copy))
     assert len(problems) == 1 and "missing dataset card" in problems[0]
-    with pytest.raises(Exception):  # datasets itself does not find the config either
+    # datasets itself finds no config either
+    with pytest.raises(FileNotFoundError, match="No \\(supported\\) data files found"):
         datasets.load_dataset(str(published_copy), "d2", split="test")
 
 
 def test_missing_shard_is_named(published_copy):
     (published_copy / "d3-b" / "full-00000-of-00001.parquet").unlink()
-    with pytest.raises(UserError, match="full-00000-of-00001.parquet: shard listed in the card is missing"):
+    with pytest.raises(UserError,
+                       match="full-00000-of-00001.parquet: shard listed in the card is missing"):
         pcbdata.load("d3-b", split="full", root=published_copy)
     problems = verify_published(published_copy, read_manifest(published_copy))
     assert problems == ["d3-b/full-00000-of-00001.parquet: shard missing",
@@ -84,7 +86,8 @@ def test_verify_names_missing_extra_and_altered_boards(published):
         "d2/test/board_00001: extra row, not in the manifest",
     ]
     manifest["configs"]["d2-hard"] = manifest["configs"]["d2"]
-    assert "d2-hard: in the manifest but not published (not in the card)" in verify_published(published, manifest)
+    problems = verify_published(published, manifest)
+    assert "d2-hard: in the manifest but not published (not in the card)" in problems
 
 
 def test_altered_row_text_is_detected(published_copy):
@@ -101,7 +104,8 @@ def test_altered_row_text_is_detected(published_copy):
     pq.write_table(table, shard, compression="zstd")
     (published_copy / "publish.json").unlink()
     problems = verify_published(published_copy, read_manifest(published_copy))
-    assert problems == ["d2/validation/board_00000: board.kicad_pcb altered (text does not match its sha256)"]
+    assert problems == ["d2/validation/board_00000: board.kicad_pcb altered (text does not "
+                        "match its sha256)"]
 
 
 def test_publish_config_typo_suggests(published_copy):
@@ -113,7 +117,8 @@ def test_publish_refuses_a_tree_altered_after_the_build(tmp_path):
     root = tmp_path / "set"
     make_set(root, d2={"test": 2}, d1={"test": 1}, d3=False)
     (root / "d2" / "test" / "board_00001" / "board.kicad_pcb").write_text("(kicad_pcb)")
-    with pytest.raises(UserError, match="board_00001/board.kicad_pcb: sha256 differs from the manifest"):
+    with pytest.raises(UserError,
+                       match="board_00001/board.kicad_pcb: sha256 differs from the manifest"):
         publish_set(root, previews=0)
     assert not (root / "README.md").exists()
 
@@ -160,7 +165,7 @@ def test_interrupted_publishing_never_looks_complete(tmp_path, monkeypatch, fail
                             f"`pcbdata publish {root}` again"]
         with pytest.raises(UserError, match="publishing was interrupted"):
             pcbdata.load("d2", root=root)
-        with pytest.raises(Exception):
+        with pytest.raises(FileNotFoundError, match="No \\(supported\\) data files found"):
             datasets.load_dataset(str(root), "d2", split="test")
         assert main(["verify", str(root)]) == 1
     else:  # nothing was committed: the old card and old shards, which verify flags as stale

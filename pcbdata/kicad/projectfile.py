@@ -1,17 +1,22 @@
-"""The D3 project-file compatibility pass (SPEC section 3, step 2): pure data, no KiCad.
+"""KiCad project files (`.kicad_pro`) as plain JSON data: pure, no `pcbnew`.
 
-It edits the `.kicad_pro` JSON only; the board file is never touched (the engine side checks
-that its bytes are identical before and after, see `pcbdata.kicad.upgrade`).
+The D3 project-file compatibility pass (SPEC section 3, step 2) and the revalidation project.
+The policy arrives as data (the recipe's `[compat]` and `[keep]` tables as plain dicts), so
+this module knows KiCad's file format and nothing of the curation. It edits the project only;
+the board file is never touched (`pcbdata.kicad.upgrade` checks that its bytes are identical
+before and after).
 """
 from __future__ import annotations
 
 import copy
-import json
+from collections.abc import Iterable
+
+from pcbdata.textio import canonical_json
 
 
 def dumps_project(project: dict) -> str:
     """Canonical project text: sorted keys, 2-space indent (KiCad's own layout), newline."""
-    return json.dumps(project, indent=2, sort_keys=True, ensure_ascii=False) + "\n"
+    return canonical_json(project, indent=2)
 
 
 def _classes(project: dict) -> list:
@@ -67,4 +72,21 @@ def patch_project(project: dict, compat: dict, observed_spacing: float | None = 
     for name, value in compat["rules"].items():
         rules[name] = value
     rules["min_hole_to_hole"] = min(float(compat["min_hole_to_hole_cap"]), clearance)
+    return out
+
+
+def check_project(project: dict, skip_checks: Iterable[str]) -> dict:
+    """The project the revalidation DRC runs with: `project` with every check of
+    `skip_checks` whose severity there is "warning" or "ignore" set to "ignore".
+
+    Only error-severity violations and unconnected items decide whether a board is kept, so
+    skipping warning-only checks (silk, text, library parity, ...) cannot change a verdict;
+    it halves the DRC time. A check the project makes an error is always run.
+    """
+    out = copy.deepcopy(project)
+    severities = out.setdefault("board", {}).setdefault("design_settings", {}).setdefault(
+        "rule_severities", {})
+    for name in skip_checks:
+        if severities.get(name, "error") in ("warning", "ignore"):  # absent: run it
+            severities[name] = "ignore"
     return out

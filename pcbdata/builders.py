@@ -1,0 +1,144 @@
+"""What `pcbdata build` does, as library functions: one per family, each assembling its
+configs from the registry (`pcbdata.configs`), building them and publishing the folder.
+
+    build_d1(out, grids=[10, 50], options=SyntheticOptions(splits=["test"]))
+    build_d2(out, level="hard", overrides={"min_pad_spacing_mm": 3.6})
+    build_configs(out, [get_config("d2"), get_config("d1-g10")])   # any registered configs
+    build_d3(source, out)
+
+The CLI modules (`pcbdata.cli.build_*`) only parse arguments, call one of these and print.
+"""
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from pcbdata.configs import SYNTHETIC_SPLITS, ConfigSpec, d1_config, d2_config
+from pcbdata.errors import UserError
+from pcbdata.synthetic_build import (
+    BuildSummary,
+    ConfigInfo,
+    SplitJob,
+    build_synthetic,
+    check_sample,
+)
+
+Log = Callable[[str], None]
+
+
+def _stderr(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
+
+
+@dataclass
+class SyntheticOptions:
+    """Options of a synthetic build (D1, D2).
+
+    `splits`: which splits (default: all); `seed`: base seed (default: the config's); `count`:
+    boards per split instead of the preset's sizes (board i is the same whatever the count);
+    `check_train`: train boards checked in KiCad, evenly spread (validation and test boards are
+    always all checked); `check`: False skips the KiCad checks; `workers`: processes for
+    generation and checks (default: all cores); `publish`: write the parquet shards, card and
+    pictures at the end; `log`: where progress lines go (default: stderr)."""
+
+    splits: list[str] | None = None
+    seed: int | None = None
+    count: int | None = None
+    check_train: int = 128
+    check: bool = True
+    workers: int | None = None
+    publish: bool = True
+    log: Log = _stderr
+
+    def resolved_workers(self) -> int:
+        return self.workers or os.cpu_count() or 1
+
+    def validate(self) -> None:
+        if self.count is not None and self.count < 1:
+            raise UserError(f"--count must be >= 1, got {self.count}")
+        if self.workers is not None and self.workers < 1:
+            raise UserError(f"--workers must be >= 1, got {self.workers}")
+        for split in self.splits or ():
+            if split not in SYNTHETIC_SPLITS:
+                raise UserError(f"unknown split {split!r}; choose from "
+                                f"{', '.join(SYNTHETIC_SPLITS)}")
+
+
+def _jobs(spec: ConfigSpec, options: SyntheticOptions) -> list[SplitJob]:
+    generator = spec.generator()
+    wanted = options.splits or list(spec.splits)
+    jobs = []
+    for split in (s for s in spec.splits if s in wanted):
+        count = options.count or spec.sizes[split]
+        checked = [] if not options.check else check_sample(
+            count, options.check_train if split == "train" else None)
+        jobs.append(SplitJob(spec.name, split, count, generator, checked))
+    return jobs
+
+
+def _config_info(spec: ConfigSpec, options: SyntheticOptions) -> ConfigInfo:
+    assert spec.seed is not None
+    return ConfigInfo(family=spec.family, set_version=spec.version,
+                      seed=spec.seed if options.seed is None else options.seed,
+                      parameters=spec.parameters, extra=dict(spec.manifest))
+
+
+def build_configs(out: str | Path, specs: list[ConfigSpec],
+                  options: SyntheticOptions | None = None) -> BuildSummary:
+    """Builds synthetic configs of the registry into `out` (then publishes it)."""
+    options = options or SyntheticOptions()
+    options.validate()
+    for spec in specs:
+        if not spec.synthetic:
+            raise UserError(f"config {spec.name!r}: build D3 with build_d3 (`pcbdata build d3`)")
+    jobs = [job for spec in specs for job in _jobs(spec, options)]
+    configs = {spec.name: _config_info(spec, options) for spec in specs}
+    workers = options.resolved_workers()
+    options.log(f"pcbdata build: {', '.join(sorted(configs))} -> {out} ({workers} workers)")
+    summary = build_synthetic(out, jobs, configs, workers=workers, log=options.log)
+    if options.publish:
+        from pcbdata.publish import publish_set
+
+        publish_set(out, list(configs))
+    return summary
+
+
+def build_d1(out: str | Path, grids: list[int] | None = None, placement: str | None = None,
+             options: SyntheticOptions | None = None) -> BuildSummary:
+    """D1 at `grids` (default: the preset's) with `placement` (default: the preset's)."""
+    from pcbdata.presets import d1_preset
+
+    specs = [d1_config(grid, placement) for grid in grids or d1_preset().grid_sizes]
+    return build_configs(out, specs, options)
+
+
+def build_d2(out: str | Path, level: str = "default", overrides: dict | None = None,
+             options: SyntheticOptions | None = None) -> BuildSummary:
+    """D2 at `level`, with parameters overridden (`--set`) if any."""
+    return build_configs(out, [d2_config(level, overrides)], options)
+
+
+def build_d3(source: str | Path, out: str | Path, recipe: str | Path | None = None,
+             workers: int | None = None, tasks_per_worker: int = 20, log: Log | None = None,
+             publish: bool = True) -> dict:
+    """D3 from a PCBench checkout at `source` with the recipe at `recipe` (default: the
+    packaged one); returns the summary (fates, tier counts, wall seconds)."""
+    from pcbdata.curation.build import build
+    from pcbdata.curation.recipe import load_recipe
+
+    if not os.path.isdir(source):
+        raise UserError(f"{source}: no such folder")
+    if workers is not None and workers < 1:
+        raise UserError("--workers must be at least 1")
+    if tasks_per_worker < 1:
+        raise UserError("--tasks-per-worker must be at least 1")
+    summary = build(source, out, load_recipe(recipe), workers=workers or os.cpu_count() or 1,
+                    log=log, tasks_per_worker=tasks_per_worker)
+    if publish:
+        from pcbdata.publish import publish_set
+
+        publish_set(out, sorted(summary["tiers"]))
+    return summary

@@ -1,0 +1,90 @@
+"""The built tree of a board set: the one module that owns its layout and file names.
+
+    DIR/manifest.json                                   written last: the set is complete
+    DIR/<config>/<split>/<board_id>/board.kicad_pcb     the task (bare board)
+    DIR/<config>/<split>/<board_id>/board.kicad_pro     its project: design rules, severities
+    DIR/<config>/<split>/<board_id>/board.kicad_dru     custom rules (D1: the one-layer rule)
+    DIR/<config>/<split>/<board_id>/reference.kicad_pcb a routed solution (D1 random-walk, D3)
+    DIR/<config>/<split>.npz                            split arrays (D1: the Connector arrays)
+    DIR/.pcbdata/checks.jsonl                           synthetic builds: KiCad checks passed
+    DIR/.d3-state/                                      D3 builds: per-board engine results
+    DIR/characteristics.csv, curation_report.*, attribution.*, LICENSE-PCBench   D3 tables
+
+Board ids: `board_NNNNN` (synthetic, by index), `NNNN_<name>` (D3, by characteristics row).
+The published parts (card, shards, pictures) are `pcbdata.publish.layout`'s.
+
+A leaf module (stdlib only): every layer, the KiCad layer included, may import it.
+"""
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from pathlib import Path
+
+MANIFEST_NAME = "manifest.json"
+BOARD_FILE = "board.kicad_pcb"
+PROJECT_FILE = "board.kicad_pro"
+RULES_FILE = "board.kicad_dru"
+REFERENCE_FILE = "reference.kicad_pcb"
+
+SYNTHETIC_STATE_DIR = ".pcbdata"
+CHECK_LOG = "checks.jsonl"
+D3_STATE_DIR = ".d3-state"
+
+CHARACTERISTICS_CSV = "characteristics.csv"
+CURATION_REPORT_CSV = "curation_report.csv"
+CURATION_REPORT_JSON = "curation_report.json"
+ATTRIBUTION_CSV = "attribution.csv"
+ATTRIBUTION_JSON = "attribution.json"
+PCBENCH_LICENCE = "LICENSE-PCBench"
+#: The tables a D3 build writes next to the boards.
+D3_TABLES = (ATTRIBUTION_CSV, ATTRIBUTION_JSON, PCBENCH_LICENCE, CHARACTERISTICS_CSV,
+             CURATION_REPORT_CSV, CURATION_REPORT_JSON)
+
+
+def synthetic_board_id(index: int) -> str:
+    return f"board_{index:05d}"
+
+
+def d3_board_id(row: int, name: str) -> str:
+    return f"{row:04d}_{name}"
+
+
+def manifest_path(root: str | os.PathLike) -> Path:
+    return Path(root) / MANIFEST_NAME
+
+
+def split_dir(root: str | os.PathLike, config: str, split: str) -> Path:
+    return Path(root) / config / split
+
+
+def board_dir(root: str | os.PathLike, config: str, split: str, board_id: str) -> Path:
+    return Path(root) / config / split / board_id
+
+
+def board_relpath(config: str, split: str, board_id: str, name: str | None = None) -> str:
+    """`config/split/board_id[/name]`: how messages and logs name a board (or one of its files)."""
+    rel = f"{config}/{split}/{board_id}"
+    return f"{rel}/{name}" if name else rel
+
+
+def arrays_name(split: str) -> str:
+    return f"{split}.npz"
+
+
+def arrays_path(root: str | os.PathLike, config: str, split: str) -> Path:
+    return Path(root) / config / arrays_name(split)
+
+
+def check_log_path(root: str | os.PathLike) -> Path:
+    return Path(root) / SYNTHETIC_STATE_DIR / CHECK_LOG
+
+
+def folder_holds(folder: Path, files: Mapping[str, bytes]) -> bool:
+    """Whether `folder` holds exactly `files` (names and bytes): a finished board is kept."""
+    try:
+        if sorted(os.listdir(folder)) != sorted(files):
+            return False
+        return all((folder / name).read_bytes() == data for name, data in files.items())
+    except (FileNotFoundError, NotADirectoryError):
+        return False
