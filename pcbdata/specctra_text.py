@@ -213,13 +213,19 @@ def restore_wire_widths(ses: str, planning: float, default: float | None,
         real = per_net.get(match.group(1).strip('"'), default)
         block = ses[match.start():end]
         if real is not None:
-            block = re.sub(r"(\((?:path|polyline_path|qarc)\s+\S+\s+)([\d.]+)",
-                           lambda m: m.group(1) + (_number(real) if float(m.group(2)) == planning
-                                                   else m.group(2)), block)
+            block = _rewrite_widths(block, planning, real)
         out += [ses[pos:match.start()], block]
         pos = end
     out.append(ses[pos:])
     return "".join(out)
+
+
+def _rewrite_widths(block: str, planning: float, real: float) -> str:
+    def width(match: re.Match) -> str:
+        old = match.group(2)
+        return match.group(1) + (_number(real) if float(old) == planning else old)
+
+    return re.sub(r"(\((?:path|polyline_path|qarc)\s+\S+\s+)([\d.]+)", width, block)
 
 
 def _number(value: float) -> str:

@@ -40,8 +40,13 @@ def allowed_top_entries() -> set[str]:
     published parts, the D3 build's tables, the builds' resume state and a Hub download's
     metadata. Leftovers of interrupted runs (`.*.tmp`) are reported separately."""
     from pcbdata.curation.build import STATE_DIR as D3_STATE_DIR
-    from pcbdata.publish.layout import (ATTRIBUTION_NAME, CARD_NAME, LOCK_NAME, PICTURES_DIR,
-                                        STATE_NAME)
+    from pcbdata.publish.layout import (
+        ATTRIBUTION_NAME,
+        CARD_NAME,
+        LOCK_NAME,
+        PICTURES_DIR,
+        STATE_NAME,
+    )
     from pcbdata.publish.push import EXTRA_TOP_FILES
     from pcbdata.synthetic_build import STATE_DIR as SYNTHETIC_STATE_DIR
 

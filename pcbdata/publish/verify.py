@@ -3,8 +3,8 @@ from __future__ import annotations
 
 import json
 from collections import Counter
+from collections.abc import Iterable
 from pathlib import Path
-from typing import Iterable
 
 import pyarrow.parquet as pq
 
@@ -168,7 +168,10 @@ def release_row_problems(rows: Iterable[dict], release, split: str,
     boards = released.get("boards", {})
     expected = set(boards) if expected is None else expected
     against = "the pinned release"
-    problems, seen, versions, parameters = [], Counter(), set(), set()
+    problems: list[str] = []
+    seen: Counter[str] = Counter()
+    versions: set = set()
+    parameters: set = set()
     for row in rows:
         board_id = row["board_id"]
         seen[board_id] += 1

@@ -10,9 +10,14 @@ import pytest
 
 from pcbdata.baselines.specctra import FREEROUTE_VARIANTS, freeroute_available
 from pcbdata.cli import main
-from pcbdata.specctra_text import (net_widths, prepare_dsn_for_freeroute,
-                                   restore_ses_after_freeroute, shrink_boundary,
-                                   via_diameters, widen_wires_for_vias)
+from pcbdata.specctra_text import (
+    net_widths,
+    prepare_dsn_for_freeroute,
+    restore_ses_after_freeroute,
+    shrink_boundary,
+    via_diameters,
+    widen_wires_for_vias,
+)
 
 DSN = """(pcb x
   (resolution um 10)
