@@ -1,11 +1,12 @@
 """Crash-safe file output: write to a temporary name in the same folder, then rename."""
 from __future__ import annotations
 
-import hashlib
 import os
 import shutil
 import tempfile
 from pathlib import Path
+
+from pcbdata.hashing import sha256_bytes, sha256_file  # noqa: F401 - re-exported for callers
 
 
 def _current_umask() -> int:
@@ -17,18 +18,6 @@ def _current_umask() -> int:
 # mkstemp/mkdtemp create private (0600/0700) entries; published sets must be readable by others.
 _FILE_MODE = 0o666 & ~_current_umask()
 _DIR_MODE = 0o777 & ~_current_umask()
-
-
-def sha256_bytes(data: bytes) -> str:
-    return hashlib.sha256(data).hexdigest()
-
-
-def sha256_file(path: str | os.PathLike) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for chunk in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(chunk)
-    return digest.hexdigest()
 
 
 def write_atomic(path: str | os.PathLike, data: bytes | str) -> None:
