@@ -15,9 +15,10 @@ import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from pcbdata.baselines import kicad_tools, specctra
+from pcbdata.baselines import specctra
 from pcbdata.errors import UserError
 from pcbdata.fsutil import write_atomic
+from pcbdata.kicad import kicad_tools_route as kicad_tools
 from pcbdata.kicad.pool import KicadPool
 
 ROUTERS = ("freeroute", "kicad-tools")
@@ -40,7 +41,7 @@ def rollout_plans(router: str, router_cmd: str | None, rollouts: int,
         if kicad_tools.executable() is None:
             raise UserError("kicad-tools is not installed; run: pip install 'pcbdata[kicad-tools]'")
         seeds = [kicad_tools.SEEDS[r % len(kicad_tools.SEEDS)] for r in range(rollouts)]
-        return [RolloutPlan("pcbdata.baselines.kicad_tools:route_board", (seed, router_timeout),
+        return [RolloutPlan("pcbdata.kicad.kicad_tools_route:route_board", (seed, router_timeout),
                             f"kicad-tools --seed {seed}", kicad_tools.version()) for seed in seeds]
     if router not in ROUTERS:
         raise UserError(f"unknown router {router!r}; use --router {' | '.join(ROUTERS)} or --router-cmd")

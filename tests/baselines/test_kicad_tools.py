@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from pcbdata.baselines import kicad_tools
 from pcbdata.cli import main
+from pcbdata.kicad import kicad_tools_route as kicad_tools
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "evaluator"))
 from boards import base_board, pad, write_instance  # noqa: E402
