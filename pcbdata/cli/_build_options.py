@@ -54,17 +54,17 @@ def run_build(args, jobs, configs) -> int:
     import sys
 
     from pcbdata.errors import ValidationError
-    from pcbdata.synthetic_build import build_synthetic
+    from pcbdata.publish import publish_set
+    from pcbdata.synthetic_build import build_synthetic, locked_root
 
     names = ", ".join(sorted(configs))
     print(f"pcbdata build: {names} -> {args.out} ({args.workers} workers)", file=sys.stderr)
-    try:
-        summary = build_synthetic(args.out, jobs, configs, workers=args.workers)
-    except ValidationError as exc:
-        print(f"pcbdata: build failed: {exc}", file=sys.stderr)
-        return 1
-    from pcbdata.publish import publish_set
-
-    publish_set(args.out, list(configs))
+    with locked_root(args.out):  # a second build into the folder waits for this one
+        try:
+            summary = build_synthetic(args.out, jobs, configs, workers=args.workers)
+        except ValidationError as exc:
+            print(f"pcbdata: build failed: {exc}", file=sys.stderr)
+            return 1
+        publish_set(args.out, list(configs))
     print(f"done: {summary.line()}")
     return 0

@@ -37,11 +37,14 @@ def run(args) -> int:
     recipe = load_recipe(args.recipe)
     log = (lambda line: None if not line.startswith("d3:") else
            print(line, file=sys.stderr, flush=True)) if args.quiet else None
-    summary = build(args.source, args.out, recipe, workers=args.workers or os.cpu_count() or 1,
-                    log=log, tasks_per_worker=args.tasks_per_worker)
+    from pcbdata.fsutil import folder_lock
     from pcbdata.publish import publish_set
 
-    publish_set(args.out, sorted(summary["tiers"]))
+    with folder_lock(args.out, "built"):  # a second build into the folder waits for this one
+        summary = build(args.source, args.out, recipe,
+                        workers=args.workers or os.cpu_count() or 1, log=log,
+                        tasks_per_worker=args.tasks_per_worker)
+        publish_set(args.out, sorted(summary["tiers"]))
     fates = summary["fates"]
     print("fates: " + ", ".join(f"{k}={v}" for k, v in fates.items()))
     print("tiers: " + ", ".join(f"{c}={n['full']} test={n['test']}"

@@ -31,9 +31,11 @@ from pcbdata.curation.picks import COLUMNS, CONFIGS, Row, assign_tiers, evaluati
     number_rows
 from pcbdata.curation.recipe import Recipe
 from pcbdata.kicad.drc_report import DrcReport
-from pcbdata.fsutil import remove_stale_temps, sha256_bytes, write_atomic, write_dir_atomic
+from pcbdata.fsutil import folder_lock, remove_stale_temps, sha256_bytes, write_atomic, \
+    write_dir_atomic
 from pcbdata.manifest import FORMAT, manifest_path, merge_configs, read_manifest, \
     write_manifest
+from pcbdata.sexpr_text import cut_problem
 
 STATE_DIR = ".d3-state"
 BOARD_FILES = ("board.kicad_pcb", "board.kicad_pro", "reference.kicad_pcb")
@@ -174,9 +176,32 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
     """Builds the D3 set of `source` into `out`; returns the summary (fate and tier counts).
 
     `tasks_per_worker`: KiCad keeps memory between boards (tens of MB each), so workers are
-    recycled after this many boards; it does not change the output.
+    recycled after this many boards; it does not change the output. The folder is locked
+    for the build (`fsutil.folder_lock`): a second build into it waits.
     """
-    from pcbdata.kicad.pool import KicadPool
+    with folder_lock(out, "built"):
+        return _build(source, out, recipe, workers, log, pool, tasks_per_worker)
+
+
+def limit_state_key(key: str, pool) -> str:
+    """State key of a board that hit the pool's time or memory limit: the same board under
+    the same limits is not run again by a resumed build (a raised limit runs it again)."""
+    limits = f"{key}\0{float(pool.task_timeout):g}\0{getattr(pool, 'memory_limit_mb', 0)}"
+    return hashlib.sha256(limits.encode("utf-8")).hexdigest()[:32]
+
+
+def _cut_board(board: corpus.SourceBoard) -> dict | None:
+    """The load-failure state of a truncated board file, decided before KiCad sees it: KiCad
+    can spin on such a file until the time limit."""
+    problem = cut_problem(board.board_path.read_bytes())
+    if problem is None:
+        return None
+    return {"fate": corpus.LOAD_FAILURE, "reason": f"load: {problem}", "errors": 0,
+            "error_types": {}, "unconnected": 0, "seconds": 0.0}
+
+
+def _build(source, out, recipe: Recipe, workers: int, log, pool, tasks_per_worker: int) -> dict:
+    from pcbdata.kicad.pool import KicadPool, is_limit_error
 
     log = log or (lambda line: print(line, file=sys.stderr, flush=True))
     source, out = Path(source), Path(out)
@@ -212,7 +237,7 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
                                   "error_types": {}, "unconnected": 0, "seconds": 0.0}
                 continue
             key = state_key(b, recipe, kicad_version)
-            cached = store.get(key)
+            cached = store.get(key) or store.get(limit_state_key(key, pool)) or _cut_board(b)
             if cached is not None:
                 states[b.name] = cached
             else:
@@ -238,8 +263,10 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
                      "uuids_fixed": value.get("uuids_fixed", 0),
                      "key": key, "name": b.name}
             files = value.get("files") if verdict["fate"] == corpus.KEPT else None
-            if verdict["fate"] != corpus.ENGINE_FAILURE:  # a crash or time limit is retried
-                store.put(key, state, files)               # by the next run
+            if verdict["fate"] != corpus.ENGINE_FAILURE:
+                store.put(key, state, files)
+            elif is_limit_error(outcome.error):  # a crash is retried by the next run
+                store.put(limit_state_key(key, pool), state, None)
 
             states[b.name] = state
             log(f"[{done}/{len(todo)}] {b.name}: {verdict['fate']}"

@@ -13,6 +13,7 @@ from pcbdata.kicad.pool import KicadPool
 from pcbdata.errors import UserError
 from pcbdata.evaluator.integrity import integrity_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
+from pcbdata.sexpr_text import cut_problem
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
 EVALUATOR_VERSION = "1.0.0"
@@ -63,7 +64,7 @@ def precheck(path: str | Path) -> str | None:
         return "not a .kicad_pcb file (binary data)"
     if not head.lstrip().startswith(b"(kicad_pcb"):
         return "not a .kicad_pcb file (does not start with '(kicad_pcb')"
-    return None
+    return cut_problem(path.read_bytes())  # KiCad's parser can hang on a cut file
 
 
 def failed_record(status: str, reason: str) -> dict:

@@ -1,7 +1,8 @@
 """Access to KiCad 9 (pcbnew, kicad-cli). The only package that runs KiCad.
 
 `kicad.py` holds the code that imports `pcbnew` (run only inside workers), `pool.py` the
-isolated worker processes, `drc_report.py` the plain-data DRC report.
+isolated worker processes (started by exec of `worker.py`), `drc_report.py` the plain-data DRC
+report.
 """
 from __future__ import annotations
 
