@@ -3,22 +3,30 @@ from __future__ import annotations
 
 import os
 
+from pcbdata.cli import _checks as checks
 from pcbdata.errors import UserError
 from pcbdata.generators.base import SPLITS
+
+
+# Board ids have five digits (`board_00000` .. `board_99999`) and sort in index order only
+# while they do.
+MAX_COUNT = 100_000
 
 
 def add_common(parser) -> None:
     parser.add_argument("--out", required=True, metavar="DIR", help="folder of the board set")
     parser.add_argument("--splits", default="train,validation,test", metavar="LIST",
                         help="comma-separated splits among train, validation, test (default: all)")
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, metavar="N",
+    parser.add_argument("--workers", type=checks.workers,
+                        default=min(os.cpu_count() or 1, checks.MAX_WORKERS),
+                        metavar="N",
                         help="worker processes for generation and KiCad checks (default: all cores)")
-    parser.add_argument("--seed", type=int, default=None,
-                        help="base seed (default: the preset's seed)")
-    parser.add_argument("--count", type=int, default=None, metavar="N",
+    parser.add_argument("--seed", type=checks.seed, default=None,
+                        help="base seed, 0 to 2**63 - 1 (default: the preset's seed)")
+    parser.add_argument("--count", type=checks.integer(1, MAX_COUNT), default=None, metavar="N",
                         help="boards per split instead of the preset's split sizes "
                              "(board i is the same whatever the count)")
-    parser.add_argument("--check-train", type=int, default=128, metavar="N",
+    parser.add_argument("--check-train", type=checks.non_negative, default=128, metavar="N",
                         help="train boards checked in KiCad, evenly spread (default: 128; "
                              "validation and test boards are always all checked)")
     parser.add_argument("--no-check", action="store_true",
@@ -35,10 +43,11 @@ def parse_splits(text: str) -> list[str]:
 
 
 def split_sizes(args, preset_sizes: dict[str, int]) -> dict[str, int]:
-    if args.count is not None and args.count < 1:
-        raise UserError(f"--count must be >= 1, got {args.count}")
-    if args.workers < 1:
-        raise UserError(f"--workers must be >= 1, got {args.workers}")
+    # argparse checked the ranges; this guards callers that build `args` themselves
+    if args.count is not None and not 1 <= args.count <= MAX_COUNT:
+        raise UserError(f"--count must be from 1 to {MAX_COUNT}, got {args.count}")
+    if not 1 <= args.workers <= checks.MAX_WORKERS:
+        raise UserError(f"--workers must be from 1 to {checks.MAX_WORKERS}, got {args.workers}")
     return {split: args.count or preset_sizes[split] for split in parse_splits(args.splits)}
 
 
@@ -56,6 +65,7 @@ def run_build(args, jobs, configs) -> int:
     from pcbdata.errors import ValidationError
     from pcbdata.synthetic_build import build_synthetic
 
+    checks.output_folder(args.out)  # last check, first write: a refused run leaves nothing
     names = ", ".join(sorted(configs))
     print(f"pcbdata build: {names} -> {args.out} ({args.workers} workers)", file=sys.stderr)
     try:

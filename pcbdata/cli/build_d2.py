@@ -22,10 +22,10 @@ def register(parser) -> None:
 
 def run(args) -> int:
     from pcbdata.generators import D2Generator
-    from pcbdata.presets import d2_level, parse_override
+    from pcbdata.presets import d2_level, parse_overrides
     from pcbdata.synthetic_build import ConfigInfo, SplitJob
 
-    overrides = dict(parse_override(text) for text in args.overrides)
+    overrides = parse_overrides(args.overrides)
     level = d2_level(args.level, overrides)
     sizes = common.split_sizes(args, level.splits)
     seed = level.seed if args.seed is None else args.seed

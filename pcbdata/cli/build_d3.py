@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import os
 
+from pcbdata.cli import _checks as checks
+
 FAMILY = "d3"
 HELP = "curate the D3 real-board set (tiers D3-A/B/C) from a PCBench checkout"
 
@@ -11,11 +13,11 @@ def register(parser) -> None:
     parser.add_argument("--source", required=True, metavar="PCBENCH_DIR",
                         help="a PCBench checkout (holds PCBs/ and github_meta/)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    parser.add_argument("--workers", type=int, default=None, metavar="N",
+    parser.add_argument("--workers", type=checks.workers, default=None, metavar="N",
                         help="KiCad worker processes (default: number of CPUs)")
     parser.add_argument("--recipe", default=None, metavar="PATH",
                         help="recipe TOML (default: the packaged pcbdata/resources/recipes/d3.toml)")
-    parser.add_argument("--tasks-per-worker", type=int, default=20, metavar="N",
+    parser.add_argument("--tasks-per-worker", type=checks.positive, default=20, metavar="N",
                         help="recycle a KiCad worker after N boards (memory; default 20)")
     parser.add_argument("--quiet", action="store_true", help="only print the summary")
     parser.set_defaults(run=run)
@@ -30,15 +32,16 @@ def run(args) -> int:
 
     if not os.path.isdir(args.source):
         raise UserError(f"{args.source}: no such folder")
-    if args.workers is not None and args.workers < 1:
-        raise UserError("--workers must be at least 1")
-    if args.tasks_per_worker < 1:
-        raise UserError("--tasks-per-worker must be at least 1")
     recipe = load_recipe(args.recipe)
+    boards_dir = recipe["source"]["boards_dir"]
+    if not os.path.isdir(os.path.join(args.source, boards_dir)):
+        raise UserError(f"{args.source}: not a PCBench checkout (no {boards_dir}/ folder)")
+    checks.output_folder(args.out)  # last check, first write: a refused run leaves nothing
     log = (lambda line: None if not line.startswith("d3:") else
            print(line, file=sys.stderr, flush=True)) if args.quiet else None
-    summary = build(args.source, args.out, recipe, workers=args.workers or os.cpu_count() or 1,
-                    log=log, tasks_per_worker=args.tasks_per_worker)
+    workers = args.workers or min(os.cpu_count() or 1, checks.MAX_WORKERS)
+    summary = build(args.source, args.out, recipe, workers=workers, log=log,
+                    tasks_per_worker=args.tasks_per_worker)
     from pcbdata.publish import publish_set
 
     publish_set(args.out, sorted(summary["tiers"]))

@@ -39,7 +39,7 @@ STATE_DIR = ".d3-state"
 BOARD_FILES = ("board.kicad_pcb", "board.kicad_pro", "reference.kicad_pcb")
 SPLITS = ("test", "full")
 REPORT_COLUMNS = ["name", "fate", "reason", "errors", "error_types", "unconnected",
-                  "board_identical", "board_id", "source_board_sha256", "seconds"]
+                  "board_identical", "board_id", "source_board_sha256", "seconds", "notes"]
 TASK = "pcbdata.kicad.upgrade:process_board"
 
 
@@ -190,6 +190,9 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
         raise UserError(f"{source}: no board folders under {recipe['source']['boards_dir']}/")
     log(f"d3: {len(boards)} board folders in {source}; recipe {recipe.version} "
         f"({recipe.sha256[:12]})")
+    for b in boards:  # e.g. an unusable metadata.json: the board goes on, the note is kept
+        for note in b.notes:
+            log(f"d3: warning: {b.name}: {note}")
     _retract_manifest(out)
 
     engine = recipe["engine"]
@@ -251,6 +254,8 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
 
     summary = _finish(source, out, recipe, boards, states, store, kicad_version)
     summary["wall_seconds"] = round(time.perf_counter() - started, 1)
+    for warning in summary["warnings"]:
+        log(f"d3: warning: {warning}")
     fates = summary["fates"]
     log("d3: fates: " + ", ".join(f"{k} {fates.get(k, 0)}" for k in corpus.FATES))
     log("d3: tiers: " + ", ".join(f"{c} {n['full']} (test {n['test']})"
@@ -286,7 +291,8 @@ def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceB
     tiers_cfg = recipe["tiers"]
     tiers = assign_tiers(rows, int(tiers_cfg["a_size"]), int(tiers_cfg["b_max_pads"]))
     subsets, notes = evaluation_subsets(tiers, recipe)
-    github = attr.load_github_licences(source, recipe)
+    warnings: list[str] = []
+    github = attr.load_github_licences(source, recipe, warnings)
     attributions = {r.name: attr.attribute(r.name, by_name[r.name].metadata, github, recipe)
                     for r in rows}
 
@@ -352,7 +358,8 @@ def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceB
             "unconnected": s.get("unconnected", 0),
             "board_identical": s.get("compat", {}).get("board_identical", ""),
             "board_id": board_ids.get(b.name, ""), "source_board_sha256": b.board_sha256,
-            "uuids_fixed": s.get("uuids_fixed", 0), "seconds": s.get("seconds", 0.0)})
+            "uuids_fixed": s.get("uuids_fixed", 0), "seconds": s.get("seconds", 0.0),
+            "notes": "; ".join(b.notes)})
     report_csv = [{**r, "error_types": ";".join(f"{k}={n}" for k, n in r["error_types"].items())}
                   for r in report]
     fates = {f: sum(1 for r in report if r["fate"] == f) for f in corpus.FATES}
@@ -361,7 +368,8 @@ def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceB
     _write_if_changed(out / "curation_report.json", _json({
         "recipe": {"version": recipe.version, "sha256": recipe.sha256},
         "kicad_version": kicad_version, "source_snapshot_sha256": snapshot,
-        "fates": fates, "tiers": tier_counts, "overrides": notes, "boards": report}))
+        "fates": fates, "tiers": tier_counts, "overrides": notes, "warnings": warnings,
+        "boards": report}))
 
     # attribution
     attr_rows = [{"board_id": r.board_id, **attributions[r.name], "tier": r.tier}
@@ -381,7 +389,8 @@ def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceB
 
     base = {"format": FORMAT, "package_version": __version__, "kicad_version": kicad_version}
     write_manifest(out, merge_configs(out, base, manifest_configs))
-    return {"fates": fates, "tiers": tier_counts, "overrides": notes, "boards": len(boards)}
+    return {"fates": fates, "tiers": tier_counts, "overrides": notes, "boards": len(boards),
+            "warnings": warnings}
 
 
 def _remove_stale_boards(out: Path, expected: set[Path]) -> None:

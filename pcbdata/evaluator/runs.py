@@ -47,19 +47,55 @@ def list_instances(root: Path, config: str, split: str) -> list[tuple[str, Path]
     return boards
 
 
+# A sidecar is a few fields; a bigger one is not read (it would be read whole into memory).
+MAX_SIDECAR_BYTES = 1 << 20
+# A wall time beyond this (about 11.6 days per rollout) is a unit mistake or garbage.
+MAX_TIME_S = 1e6
+
+
 def rollout_time(board_file: Path) -> float | None:
+    """The method's wall time of a rollout from its sidecar, or None (none, or not valid)."""
+    return read_rollout_time(board_file)[0]
+
+
+def read_rollout_time(board_file: Path) -> tuple[float | None, str]:
+    """(time, problem) of a rollout's `<rollout>.json`: the time is None when there is no
+    sidecar or no time key, and also when the sidecar or its time is not valid, which
+    `problem` then says (a valid time: a number from 0 to MAX_TIME_S, not a boolean)."""
     sidecar = board_file.with_suffix(".json")
     if not sidecar.is_file():
-        return None
+        return None, ""
+    data, problem = _read_sidecar(sidecar)
+    if problem:
+        return None, problem
+    if not isinstance(data, dict):
+        return None, f"{sidecar.name}: not a JSON object"
+    key = next((k for k in TIME_KEYS if data.get(k) is not None), None)  # null: no time
+    if key is None:
+        return None, ""
+    value = data[key]
+    valid = (isinstance(value, (int, float)) and not isinstance(value, bool)
+             and math.isfinite(value) and 0 <= value <= MAX_TIME_S)
+    if not valid:
+        shown = repr(value)[:40] if isinstance(value, (bool, int, float, str)) else type(value).__name__
+        return None, (f"{sidecar.name}: invalid {key} {shown} (expected a number of seconds "
+                      f"from 0 to {MAX_TIME_S:g})")
+    return float(value), ""
+
+
+def _read_sidecar(sidecar: Path) -> tuple[object, str]:
     try:
-        data = json.loads(sidecar.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    for key in TIME_KEYS:
-        value = data.get(key) if isinstance(data, dict) else None
-        if isinstance(value, (int, float)) and math.isfinite(value):
-            return float(value)
-    return None
+        if sidecar.stat().st_size > MAX_SIDECAR_BYTES:
+            return None, f"{sidecar.name}: larger than {MAX_SIDECAR_BYTES} bytes, not read"
+        return json.loads(sidecar.read_bytes().decode("utf-8")), ""
+    except OSError as exc:
+        return None, f"{sidecar.name}: unreadable ({exc.strerror})"
+    except UnicodeDecodeError:
+        return None, f"{sidecar.name}: not UTF-8 text"
+    except ValueError as exc:
+        return None, f"{sidecar.name}: not valid JSON ({str(exc).splitlines()[0][:80]})"
+    except RecursionError:
+        return None, f"{sidecar.name}: JSON nested too deeply to read"
 
 
 def list_rollouts(runs: Path, board_id: str, k: int) -> list[tuple[str, Path]]:
@@ -68,6 +104,26 @@ def list_rollouts(runs: Path, board_id: str, k: int) -> list[tuple[str, Path]]:
         return []
     stems = {p.stem for p in folder.glob("*.kicad_pcb")} | {p.stem for p in folder.glob("*.json")}
     return [(stem, folder / f"{stem}.kicad_pcb") for stem in sorted(stems, key=natural_key)[:k]]
+
+
+def runs_warnings(runs: Path, split_ids: list[str], scored_ids: list[str], k: int) -> dict:
+    """What in RUNS is not scored, by kind: entries that are not a board of the split, board
+    entries that are not folders, files that are not rollouts, and rollouts beyond the first
+    k per board (the @k protocol). Boards of the split left out by `limit` are not listed."""
+    known = set(split_ids)
+    out = {"not_in_split": sorted(p.name for p in runs.iterdir() if p.name not in known),
+           "not_a_folder": [], "not_a_rollout": [], "beyond_k": []}
+    for board_id in scored_ids:
+        folder = runs / board_id
+        if not folder.is_dir():
+            if folder.exists() or folder.is_symlink():
+                out["not_a_folder"].append(board_id)
+            continue
+        out["not_a_rollout"] += sorted(f"{board_id}/{p.name}" for p in folder.iterdir()
+                                       if p.suffix not in (".kicad_pcb", ".json"))
+        stems = {p.stem for p in folder.glob("*.kicad_pcb")} | {p.stem for p in folder.glob("*.json")}
+        out["beyond_k"] += [f"{board_id}/{stem}" for stem in sorted(stems, key=natural_key)[k:]]
+    return out
 
 
 def cache_key(instance_key: str, routed_hash: str, weights: Weights) -> str:
@@ -167,6 +223,51 @@ def _csv(rows: list[dict], columns: list[str]) -> str:
     return out.getvalue()
 
 
+def _check_arguments(k, workers, weights: Weights, task_timeout, limit, name) -> None:
+    """The ranges of evaluate_set's arguments (the CLI checks them too, before this)."""
+    def integer(value) -> bool:
+        return isinstance(value, int) and not isinstance(value, bool)
+
+    if not integer(k) or k < 1:
+        raise UserError(f"--k must be an integer >= 1, got {k!r}")
+    if not integer(workers) or workers < 1:
+        raise UserError(f"--workers must be an integer >= 1, got {workers!r}")
+    if limit is not None and (not integer(limit) or limit < 1):
+        raise UserError(f"--limit must be an integer >= 1 (or absent: every board), got {limit!r}")
+    if isinstance(task_timeout, bool) or not isinstance(task_timeout, (int, float)) \
+            or not math.isfinite(task_timeout) or task_timeout <= 0:
+        raise UserError(f"--timeout must be a finite number of seconds > 0, got {task_timeout!r}")
+    for key, value in weights.as_dict().items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value) or value < 0:
+            raise UserError(f"weight {key} must be a finite number >= 0, got {value!r}")
+    if name is not None and (not name.strip() or any(c in name for c in "|\r\n")):
+        raise UserError(f"--name {name!r}: must be non-empty, without '|' or line breaks "
+                        f"(it is a cell of the markdown table)")
+
+
+_SHOWN_WARNINGS = 10
+
+
+def _print_warnings(warnings: dict, runs: Path) -> None:
+    """One stderr line per kind of RUNS entry that is not scored (all of them are recorded
+    in summary.json under `runs_warnings`)."""
+    what = {"not_in_split": "entries that are not boards of this split, ignored",
+            "not_a_folder": "board entries that are not folders, scored as missing",
+            "not_a_rollout": "files that are not rollouts (.kicad_pcb, .json), ignored",
+            "beyond_k": "rollouts beyond the first k, not scored",
+            "invalid_times": "rollout times not valid, not counted"}
+    for kind, items in warnings.items():
+        if not items:
+            continue
+        names = [f"{i['board_id']}/{i['rollout']}: {i['reason']}" if isinstance(i, dict) else i
+                 for i in items]
+        shown = "; ".join(names[:_SHOWN_WARNINGS])
+        more = f"; ... {len(names) - _SHOWN_WARNINGS} more" if len(names) > _SHOWN_WARNINGS else ""
+        print(f"pcbdata eval: warning: {runs}: {what[kind]} ({len(names)}): {shown}{more}; "
+              f"summary.json lists them under runs_warnings.{kind}", file=sys.stderr)
+
+
 def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                  runs: str | Path | None = None, k: int = 5, reference: bool = False,
                  workers: int = 1, weights: Weights = DEFAULT_WEIGHTS, name: str | None = None,
@@ -176,11 +277,15 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
     and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl`. `limit` scores
     only the first N boards of the split (in board-id order)."""
     root, out = Path(root), Path(out)
-    if k < 1:
-        raise UserError("--k must be at least 1")
+    _check_arguments(k, workers, weights, task_timeout, limit, name)
     if reference == (runs is not None):
         raise UserError("give either RUNS (--runs) or --reference")
-    instances = list_instances(root, config, split)[: limit or None]
+    if not reference and not Path(runs).is_dir():
+        raise UserError(f"{runs}: no such RUNS directory")
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out}: exists and is not a folder (REPORT is a folder)")
+    every = list_instances(root, config, split)
+    instances = every[:limit] if limit is not None else every
     plan = []  # (board_id, rollout name, index, instance dir, routed path)
     for board_id, directory in instances:
         if reference:
@@ -195,8 +300,8 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                 rollouts = [("missing", Path(runs) / board_id / "missing.kicad_pcb")]
         for index, (rollout, path) in enumerate(rollouts):
             plan.append((board_id, rollout, index, directory, path))
-    if not reference and not Path(runs).is_dir():
-        raise UserError(f"{runs}: no such RUNS directory")
+    warnings = {} if reference else runs_warnings(
+        Path(runs), [b for b, _ in every], [b for b, _ in instances], k)
     out.mkdir(parents=True, exist_ok=True)
     cache_path = out / CACHE_NAME
     cache = load_cache(cache_path)
@@ -231,11 +336,18 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                 cache_file.flush()
                 if progress and (done % 50 == 0 or done == len(todo)):
                     print(f"  scored {done}/{len(todo)}", file=sys.stderr)
-    rollout_rows = []
+    rollout_rows, bad_times = [], []
     for (board_id, rollout, index, directory, path), record in zip(plan, records):
+        time_s, problem = read_rollout_time(path) if not reference else (None, "")
+        if problem:
+            bad_times.append({"board_id": board_id, "rollout": rollout, "reason": problem})
         row = {**record, "board_id": board_id, "rollout": rollout, "index": index,
-               "time": rollout_time(path) if not reference else None}
+               "time": time_s}
         rollout_rows.append(row)
+    if not reference:
+        warnings["invalid_times"] = bad_times
+        if progress:
+            _print_warnings(warnings, Path(runs))
     by_board: dict[str, list[dict]] = {}
     for row in rollout_rows:
         by_board.setdefault(row["board_id"], []).append(row)
@@ -243,6 +355,8 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
     summary = summarize(board_rows, rollout_rows, 1 if reference else k)
     summary.update(config=config, split=split, evaluator_version=EVALUATOR_VERSION,
                    weights=weights.as_dict(), reference=reference)
+    if warnings:
+        summary["runs_warnings"] = warnings
     label = name or ("Reference" if reference else Path(runs).name)
     table = markdown_table([(label, summary)])
     write_atomic(out / "per_rollout.csv", _csv(rollout_rows, ROLLOUT_COLUMNS))
