@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Everything a fresh machine needs: KiCad 9.0.8 (bookworm-backports), a venv made from the
-# system Python (which is the one that can import pcbnew) and the package with its test extras.
+# system Python (which is the one that can import pcbnew), the package with its test extras
+# and the DRC-wait preload (build/fastwait/).
 # Idempotent: a second run only checks.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,4 +16,6 @@ if [ ! -x .venv/bin/python ]; then
     /usr/bin/python3 -m venv --system-site-packages .venv
 fi
 .venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test,route]"
+# The preload that removes KiCad's 250 ms DRC polling sleep (optional: skipped without gcc).
+bash scripts/build-fastwait.sh
 .venv/bin/python -c "import pcbnew, pcbdata; print('pcbdata', pcbdata.__version__, 'with KiCad', pcbnew.Version())"
