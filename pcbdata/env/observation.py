@@ -29,8 +29,12 @@ COLUMNS = {"outline": ("x", "y", "ring"),
            "violations": ("valid", "type", "severity", "x", "y", "net_a", "net_b")}
 
 
+#: Bound of every real-valued entry: mm (a board is far below 1 km), indices and codes.
+LIMIT = 1e6
+
+
 def _rows(n: int, name: str) -> spaces.Box:
-    return spaces.Box(-np.inf, np.inf, (n, len(COLUMNS[name])), np.float64)
+    return spaces.Box(-LIMIT, LIMIT, (n, len(COLUMNS[name])), np.float64)
 
 
 def _count(high: int) -> spaces.Box:
@@ -43,7 +47,7 @@ def observation_space(o) -> spaces.Dict:
         "board_static": spaces.Dict({
             "n_layers": _count(MAX_LAYERS), "outline": _rows(o.max_outline_points, "outline"),
             "outline_count": _count(o.max_outline_points),
-            "rules": spaces.Box(0, np.inf, (5,), np.float64),
+            "rules": spaces.Box(0, LIMIT, (5,), np.float64),
             "nets": _rows(o.max_nets, "nets"), "net_count": _count(10**6),
             "pads": _rows(o.max_pads, "pads"),
             "pad_layers": spaces.Box(0, 1, (o.max_pads, MAX_LAYERS), np.int8)}),
@@ -56,7 +60,7 @@ def observation_space(o) -> spaces.Dict:
         "router_head": spaces.Dict({
             "phase": spaces.Discrete(len(PHASES)),
             "net": spaces.Box(-1, o.max_nets - 1, (), np.int64),
-            "position": spaces.Box(-np.inf, np.inf, (2,), np.float64),
+            "position": spaces.Box(-LIMIT, LIMIT, (2,), np.float64),
             "layer": spaces.Box(-1, MAX_LAYERS - 1, (), np.int64),
             "candidates": _rows(o.max_candidates, "candidates")}),
         "drc": spaces.Dict({"violations": _rows(o.max_violations, "violations"),
