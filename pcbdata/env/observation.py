@@ -191,10 +191,15 @@ def _code(table: tuple, value: str) -> int:
 
 
 def drc_part(static: StaticBoard, counted: list[dict], space: spaces.Dict) -> dict:
-    """The first violations (canonical order) of those the reward counts."""
+    """The first violations (canonical order) of those the reward counts, unconnected items
+    left out: KiCad picks the items an unconnected edge names in an order that varies from run
+    to run, so open connections are given by the deterministic `routing_geometry.ratsnest`.
+    `total` counts them all."""
     net_index = {n.name: i for i, n in enumerate(static.nets)}
     rows = []
     for v in counted:
+        if v["section"] == "unconnected":
+            continue
         x, y = v["positions"][0] if v.get("positions") else (0.0, 0.0)
         nets = [net_index.get(n, -1) for n in v["nets"]] + [-1, -1]
         rows.append((1, _code(DRC_TYPES, v["type"]), _code(SEVERITIES, v["severity"]), x, y,
