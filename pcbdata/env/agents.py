@@ -62,9 +62,10 @@ class ScriptedAgent:
     """The rule-based baseline (see the module doc). `done` turns True when it has nothing
     left to try (a runner may then stop the episode early)."""
 
-    def __init__(self, seed: int = 0, tries_per_net: int = 6):
+    def __init__(self, seed: int = 0, tries_per_net: int = 6, mode: int = WALKAROUND):
         self.seed = seed
         self.tries_per_net = tries_per_net
+        self.mode = mode  # WALKAROUND; MARK_OBSTACLES lays lines through obstacles (demos, tests)
         self._board = None
 
     def _new_episode(self, obs) -> None:
@@ -149,12 +150,12 @@ class ScriptedAgent:
         if not any(int(e[1]) == net for e in _open_edges(obs)):
             return action(NET_END)
         key = self._head_key(obs)
-        if m["type"][FINISH] and m["mode"][WALKAROUND] and key not in self._finish_failed:
-            return action(FINISH, mode=WALKAROUND)
+        if m["type"][FINISH] and m["mode"][self.mode] and key not in self._finish_failed:
+            return action(FINISH, mode=self.mode)
         via = self._via_here(obs, info, key)
         if via is not None:
             self._vias.add(key[:2])
-            return action(MAKE_VIA, candidate=via, mode=WALKAROUND)
+            return action(MAKE_VIA, candidate=via, mode=self.mode)
         return action(NET_END)  # restart from another pad or layer, or give the net up
 
     def _via_here(self, obs, info, key: tuple) -> int | None:
