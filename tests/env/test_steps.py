@@ -172,3 +172,18 @@ def test_unknown_board_id_is_a_clear_error(make_env):
     env = make_env()
     with pytest.raises(ValueError, match="not in this environment"):
         env.reset(options={"board_id": "board_99999"})
+
+
+def test_dataset_rows_are_a_source(make_env, board_set):
+    """Rows as `load_dataset` gives them (board text columns) are written back and routed."""
+    rows = []
+    for index in range(2):
+        folder = board_set / "d2" / "test" / f"board_{index:05d}"
+        rows.append({"config": "d2", "split": "test", "board_id": folder.name,
+                     "board": (folder / "board.kicad_pcb").read_text(),
+                     "project": (folder / "board.kicad_pro").read_text()})
+    from_rows = make_env(root=None, rows=rows)
+    from_set = make_env()
+    obs_rows, info_rows = from_rows.reset(seed=0, options={"board_id": "board_00001"})
+    obs_set, info_set = from_set.reset(seed=0, options={"board_id": "board_00001"})
+    assert _equal(obs_rows, obs_set) and info_rows["net_names"] == info_set["net_names"]
