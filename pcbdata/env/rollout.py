@@ -12,6 +12,7 @@ import importlib
 import inspect
 import json
 import multiprocessing
+import multiprocessing.util
 import os
 import time
 from pathlib import Path
@@ -64,6 +65,8 @@ def _env(env_kwargs: dict):
     if "env" not in _ENV:
         kwargs = dict(env_kwargs)
         _ENV["env"] = gym.make(kwargs.pop("id"), **kwargs)
+        # Pool workers leave through os._exit: only multiprocessing's finalizers run.
+        multiprocessing.util.Finalize(None, _ENV["env"].close, exitpriority=10)
     return _ENV["env"]
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import shutil
 import tempfile
+import weakref
 from pathlib import Path
 
 from pcbdata.kicad.pool import KicadPool
@@ -21,6 +22,8 @@ class KicadSession:
                                env=env)
         self.work = Path(tempfile.mkdtemp(prefix="pcbdata-env-"))  # private: stage, instance
         self.alive = False
+        # An environment dropped without close() still stops its worker and removes its folder.
+        self._finalizer = weakref.finalize(self, _release, self._pool, str(self.work))
 
     def _call(self, function: str, *args):
         outcome = next(iter(self._pool.map(f"{SESSION}:{function}", [args])))
@@ -49,6 +52,10 @@ class KicadSession:
         return self._call("save", str(Path(path).resolve()))
 
     def close(self) -> None:
-        self._pool.close()
-        shutil.rmtree(self.work, ignore_errors=True)
+        self._finalizer()
         self.alive = False
+
+
+def _release(pool: KicadPool, work: str) -> None:
+    pool.close()
+    shutil.rmtree(work, ignore_errors=True)
