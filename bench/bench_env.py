@@ -91,7 +91,7 @@ def main() -> int:
     result = {"machine": machine(), "date": datetime.now(timezone.utc).isoformat(timespec="minutes"),
               "load_before": load_before, "load_after": os.getloadavg(), "mode": MODES[mode],
               "preload": args.preload, "drc_every_step": per_step, "drc_terminal": terminal,
-              "eval_at_1": {k: v for k, v in summary.items() if k != "boards"}}
+              "eval_at_1": summary["summary"], "eval_table": summary["table"]}
     text = json.dumps(result, indent=1, sort_keys=True, default=str)
     print(text)
     if args.json:
