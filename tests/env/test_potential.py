@@ -82,3 +82,22 @@ def test_connectivity_count_matches_drc(make_env):
         obs, _, terminated, truncated, info = env.step(agent.act(obs, info))
         if terminated or truncated or agent.done:
             break
+
+
+def test_terminal_reward_pays_once_the_same_total(make_env):
+    totals = {}
+    for reward in ("step", "terminal"):
+        env = make_env(reward=reward, max_steps=12, counting="evaluation", drc="terminal",
+                       weights={"lw": 0.01, "lv": 0.5, "net_weight": 3.0})
+        agent = ScriptedAgent(seed=0, mode=MARK_OBSTACLES)
+        obs, info = env.reset(seed=0, options={"index": 1})
+        rewards = []
+        for _ in range(12):
+            obs, r, terminated, truncated, info = env.step(agent.act(obs, info))
+            rewards.append(r)
+            if terminated or truncated:
+                break
+        if reward == "terminal":
+            assert all(r == 0.0 for r in rewards[:-1]) and rewards[-1] != 0.0
+        totals[reward] = sum(rewards)
+    assert totals["step"] == pytest.approx(totals["terminal"], abs=1e-9)
