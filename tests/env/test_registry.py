@@ -28,16 +28,39 @@ def test_check_env_passes(ident, board_set, d3_set):
     D3: a built D3 set named by PCBDATA_D3_SET."""
     options = {}
     if "-d3-" in ident:
-        if d3_set is None:
-            pytest.skip("D3 ids need a built D3 set: set PCBDATA_D3_SET=<pcbdata build d3 output>")
-        options = {"root": str(d3_set)}
+        options = {"root": str(_d3_root(ident, d3_set))}
     env = gym.make(ident, **options)
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")  # check_env's warnings are failures here
             check_env(env.unwrapped)
+        if "-d3-" in ident:
+            _random_steps(env, 100)
     finally:
         env.close()
+
+
+def _d3_root(ident: str, d3_set):
+    if d3_set is None:
+        pytest.skip("D3 ids need a built D3 set: set PCBDATA_D3_SET=<pcbdata build d3 output>")
+    tier = ident.split("Route-", 1)[1].rsplit("-v", 1)[0]
+    if not any((d3_set / tier / "test").glob("*/board.kicad_pcb")):
+        pytest.skip(f"the D3 set {d3_set} has no {tier} test boards")
+    return d3_set
+
+
+def _random_steps(env, steps: int) -> None:
+    """Seeded masked-random actions on real boards never crash (D3: real netclasses, zones,
+    many layers)."""
+    from pcbdata.env.agents import RandomAgent
+
+    agent = RandomAgent(7)
+    obs, info = env.reset(seed=7)
+    for _ in range(steps):
+        obs, _, terminated, truncated, info = env.step(agent.act(obs, info))
+        assert "engine_failure" not in info
+        if terminated or truncated:
+            obs, info = env.reset()
 
 
 def test_wrong_id_suggests_the_closest():
