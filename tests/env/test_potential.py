@@ -29,7 +29,8 @@ def _episodes(board_set, make_env, walkaround: bool):
     for config, boards in (("d2", 4), ("d1-g10", 2)):
         for drc in ("step", "terminal"):
             env = make_env(config, counting=evaluator_counting(), drc=drc, max_steps=40)
-            for index in range(boards):
+            # DRC after every step is the slow part: half the boards with it, all without
+            for index in range(boards // 2 if drc == "step" else boards):
                 board_id = f"board_{index:05d}"
                 agents = [ScriptedAgent(seed=index, mode=MARK_OBSTACLES), RandomAgent(seed=index)]
                 if walkaround:
@@ -61,7 +62,7 @@ def test_summed_reward_equals_the_evaluators_pot(board_set, make_env, kicad_pool
     episodes = _episodes(board_set, make_env, walkaround_module() is not None)
     with Evaluator(pool=kicad_pool) as evaluator:
         scored = dict(evaluator.score_many([(inst, saved) for inst, saved, _ in episodes]))
-    assert len(scored) == len(episodes) >= 24
+    assert len(scored) == len(episodes) >= 18
     connected = 0
     for index, (_, saved, record) in enumerate(episodes):
         result = scored[index]
