@@ -41,7 +41,7 @@ class EnvOptions:
     max_ratsnest: int | None = None
     max_violations: int = 32
     router_nodes: int = 20000
-    router_seconds: float = 10.0  # safety net only: the node budget keeps results deterministic
+    router_seconds: float = 2.0  # safety net only: the node budget keeps results deterministic
     finish_tries: int = 3
     task_timeout: float = 120.0
     engine_env: dict | None = None  # environment of the KiCad worker (e.g. LD_PRELOAD)

@@ -65,7 +65,11 @@ def _path(router, mode: int, net: NetRules, layer: str, start, goal, budget) -> 
              if "time" not in k and "second" not in k}  # info must stay deterministic
     if result.path is None:
         return Outcome(False, f"walkaround: {result.reason or 'no path'}", stats=stats)
-    return Outcome(True, edits=[tuple(tuple(p) for p in result.path)], stats=stats)
+    path = tuple(tuple(int(v) for v in p) for p in result.path)
+    if not path or path[0] != tuple(start) or path[-1] != tuple(goal):
+        return Outcome(False, "walkaround: the router's path does not join the head to the goal",
+                       stats=stats)
+    return Outcome(True, edits=[path], stats=stats)
 
 
 def _track_edit(net: NetRules, layer: str, points) -> dict:
