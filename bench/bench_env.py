@@ -31,7 +31,7 @@ def _write_set(root: Path, limit: int) -> None:
 
 
 def _episodes(root: Path, drc: str, limit: int, mode: int, preload: str | None,
-              runs: Path | None) -> dict:
+              runs: Path | None, seed: int = 0) -> dict:
     import gymnasium as gym
 
     import pcbdata.env  # noqa: F401
@@ -45,14 +45,14 @@ def _episodes(root: Path, drc: str, limit: int, mode: int, preload: str | None,
     times, steps, records = [], 0, []
     for index in range(limit):
         board_id = f"board_{index:05d}"
-        record = run_episode(env, ScriptedAgent(seed=0, mode=mode), board_id, 0)
+        record = run_episode(env, ScriptedAgent(seed=seed, mode=mode), board_id, seed)
         times.append(record["time_s"])
         steps += record["steps"]
         records.append(record)
         if runs is not None:
             (runs / board_id).mkdir(parents=True, exist_ok=True)
-            env.unwrapped.save(runs / board_id / "0.kicad_pcb")
-            (runs / board_id / "0.json").write_text(json.dumps(record))
+            env.unwrapped.save(runs / board_id / f"{seed}.kicad_pcb")
+            (runs / board_id / f"{seed}.json").write_text(json.dumps(record))
     router = env.unwrapped.timings["router_s"]
     env.close()
     return {"drc": drc, "episodes": limit, "median_episode_s": statistics.median(times),
@@ -75,6 +75,9 @@ def main() -> int:
     parser.add_argument("--set", help="a built set holding d2/test (default: generated)")
     parser.add_argument("--limit", type=int, default=128)
     parser.add_argument("--preload", help="LD_PRELOAD for the KiCad worker")
+    parser.add_argument("--k", type=int, default=5,
+                        help="rollouts per board for CP @k (the extra ones with terminal DRC: "
+                             "the scripted agent does not read the DRC, its boards are the same)")
     parser.add_argument("--json", help="write the figures here")
     args = parser.parse_args()
     mode = WALKAROUND if walkaround_module() is not None else MARK_OBSTACLES
@@ -86,12 +89,17 @@ def main() -> int:
         load_before = os.getloadavg()
         per_step = _episodes(root, "step", args.limit, mode, args.preload, runs)
         terminal = _episodes(root, "terminal", args.limit, mode, args.preload, None)
+        for seed in range(1, args.k):
+            _episodes(root, "terminal", args.limit, mode, args.preload, runs, seed)
         summary = evaluate_set(root, "d2", "test", Path(tmp) / "report", runs=runs, k=1,
                                workers=2, progress=False, limit=args.limit)
+        at_k = evaluate_set(root, "d2", "test", Path(tmp) / "report_k", runs=runs, k=args.k,
+                            workers=2, progress=False, limit=args.limit)
     result = {"machine": machine(), "date": datetime.now(timezone.utc).isoformat(timespec="minutes"),
               "load_before": load_before, "load_after": os.getloadavg(), "mode": MODES[mode],
               "preload": args.preload, "drc_every_step": per_step, "drc_terminal": terminal,
-              "eval_at_1": summary["summary"], "eval_table": summary["table"]}
+              "eval_at_1": summary["summary"], "eval_table": summary["table"],
+              f"eval_at_{args.k}": at_k["summary"], "eval_table_at_k": at_k["table"]}
     text = json.dumps(result, indent=1, sort_keys=True, default=str)
     print(text)
     if args.json:
