@@ -20,6 +20,7 @@ from pcbdata.kicad.scoring import copper_totals, pad_clusters
 
 #: The one board of this worker: {"board", "layers": {name: id}, "pads": [PAD], "path"}.
 _STATE: dict = {}
+_STAGED = [0]  # instances staged by this worker: each gets its own folder
 
 INSTANCE_FILES = {"board.kicad_pcb": ".kicad_pcb", "board.kicad_pro": ".kicad_pro",
                   "board.kicad_dru": ".kicad_dru"}
@@ -32,16 +33,21 @@ def _board():
 
 
 def _stage(board: str, project: str, rules: str | None, stage_dir: str) -> str:
-    """Copies the instance's files under one stem in the environment's private folder: KiCad
-    loads the rules that share the board's stem and writes lock files beside it."""
+    """Copies the instance's files under one stem into a new folder of the environment's
+    private folder: KiCad loads the rules that share the board's stem and writes lock files
+    beside it. The folder is new for every instance because KiCad keeps a project it has loaded
+    by its path: a second board staged at the same path would get the first board's rules."""
     os.makedirs(stage_dir, exist_ok=True)
     for name in os.listdir(stage_dir):
-        os.remove(os.path.join(stage_dir, name))
-    staged = os.path.join(stage_dir, "board.kicad_pcb")
+        shutil.rmtree(os.path.join(stage_dir, name), ignore_errors=True)
+    _STAGED[0] += 1
+    folder = os.path.join(stage_dir, str(_STAGED[0]))
+    os.makedirs(folder)
+    staged = os.path.join(folder, "board.kicad_pcb")
     shutil.copyfile(board, staged)
-    shutil.copyfile(project, os.path.join(stage_dir, "board.kicad_pro"))
+    shutil.copyfile(project, os.path.join(folder, "board.kicad_pro"))
     if rules:
-        shutil.copyfile(rules, os.path.join(stage_dir, "board.kicad_dru"))
+        shutil.copyfile(rules, os.path.join(folder, "board.kicad_dru"))
     return staged
 
 

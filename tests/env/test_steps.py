@@ -187,3 +187,26 @@ def test_dataset_rows_are_a_source(make_env, board_set):
     obs_rows, info_rows = from_rows.reset(seed=0, options={"board_id": "board_00001"})
     obs_set, info_set = from_set.reset(seed=0, options={"board_id": "board_00001"})
     assert _equal(obs_rows, obs_set) and info_rows["net_names"] == info_set["net_names"]
+
+
+def test_each_instance_keeps_its_own_rules(tmp_path, board_set):
+    """One worker loads many instances: each must be judged by its own project (KiCad keeps a
+    loaded project by path, so a reused staging path would leak the previous rules)."""
+    import gymnasium as gym
+    import shutil
+
+    source = board_set / "d2" / "test" / "board_00000"
+    for board_id, clearance in (("board_00000", "0.3"), ("board_00001", "0.5")):
+        folder = tmp_path / "d2" / "test" / board_id
+        shutil.copytree(source, folder)
+        project = folder / "board.kicad_pro"
+        project.write_text(project.read_text().replace('"clearance": 0.3', f'"clearance": {clearance}'))
+    env = gym.make("pcbdata/Route-d2-v0", root=str(tmp_path))
+    try:
+        seen = []
+        for board_id in ("board_00000", "board_00001", "board_00000"):
+            obs, info = env.reset(options={"board_id": board_id})
+            seen.append(round(float(obs["board_static"]["rules"][0]), 6))
+        assert seen == [0.3, 0.5, 0.3]
+    finally:
+        env.close()
