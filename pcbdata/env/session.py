@@ -17,9 +17,14 @@ class EngineFailure(RuntimeError):
 
 
 class KicadSession:
+    #: A fresh worker after this many instances: KiCad keeps about 0.4 MB per loaded board.
+    RECYCLE_EVERY = 200
+
     def __init__(self, task_timeout: float, env: dict | None = None):
-        self._pool = KicadPool(workers=1, tasks_per_worker=10**9, task_timeout=task_timeout,
-                               env=env)
+        self._pool_args = {"workers": 1, "tasks_per_worker": 10**9,
+                           "task_timeout": task_timeout, "env": env}
+        self._pool = KicadPool(**self._pool_args)
+        self._opened = 0
         self.work = Path(tempfile.mkdtemp(prefix="pcbdata-env-"))  # private: stage, instance
         self.alive = False
         # An environment dropped without close() still stops its worker and removes its folder.
@@ -36,6 +41,12 @@ class KicadSession:
         """Loads an instance; returns {"static", "snapshot"}. A failure of the previous board's
         worker is forgotten: the pool starts a fresh worker when the old one died."""
         self.alive = False
+        self._opened += 1
+        if self._opened % self.RECYCLE_EVERY == 0:
+            self._pool.close()
+            self._pool = KicadPool(**self._pool_args)
+            self._finalizer.detach()
+            self._finalizer = weakref.finalize(self, _release, self._pool, str(self.work))
         value = self._call("open_instance", board, project, rules, str(self.work / "stage"))
         self.alive = True
         return value
