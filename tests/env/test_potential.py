@@ -102,3 +102,29 @@ def test_terminal_reward_pays_once_the_same_total(make_env):
             assert all(r == 0.0 for r in rewards[:-1]) and rewards[-1] != 0.0
         totals[reward] = sum(rewards)
     assert totals["step"] == pytest.approx(totals["terminal"], abs=1e-9)
+
+
+def test_d3_summed_reward_equals_pot(d3_set, kicad_pool, tmp_path):
+    """Real boards (netclasses, zones, several layers), several instances per KiCad worker."""
+    import gymnasium as gym
+
+    from pcbdata.evaluator import Evaluator
+
+    if d3_set is None or not any((d3_set / "d3-a" / "test").glob("*/board.kicad_pcb")):
+        pytest.skip("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
+    env = gym.make("pcbdata/Route-d3-a-v0", root=str(d3_set), drc="terminal", max_steps=60,
+                   counting=evaluator_counting())
+    try:
+        pairs, rewards = [], []
+        for board_id in env.unwrapped.source.board_ids[:6]:
+            record = _until_end(env, ScriptedAgent(mode=MARK_OBSTACLES), board_id, 0)
+            saved = tmp_path / f"{board_id}.kicad_pcb"
+            env.unwrapped.save(saved)
+            pairs.append((d3_set / "d3-a" / "test" / board_id, saved))
+            rewards.append(record["reward"])
+    finally:
+        env.close()
+    with Evaluator(pool=kicad_pool) as evaluator:
+        for index, result in evaluator.score_many(pairs):
+            assert result["status"] == "ok", result["reason"]
+            assert math.isclose(result["pot"], rewards[index], abs_tol=1e-9), pairs[index]
