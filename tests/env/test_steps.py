@@ -210,3 +210,24 @@ def test_each_instance_keeps_its_own_rules(tmp_path, board_set):
         assert seen == [0.3, 0.5, 0.3]
     finally:
         env.close()
+
+
+def test_a_board_that_does_not_load_is_a_clear_error(tmp_path, board_set):
+    import gymnasium as gym
+    import shutil
+
+    from pcbdata.env.env import BoardLoadError
+
+    good = tmp_path / "d2" / "test" / "board_00000"
+    shutil.copytree(board_set / "d2" / "test" / "board_00000", good)
+    bad = tmp_path / "d2" / "test" / "board_00001"
+    shutil.copytree(good, bad)
+    (bad / "board.kicad_pcb").write_text("(kicad_pcb (version 20240108) (garbage")
+    env = gym.make("pcbdata/Route-d2-v0", root=str(tmp_path))
+    try:
+        with pytest.raises(BoardLoadError, match="board_00001"):
+            env.reset(options={"board_id": "board_00001"})
+        obs, info = env.reset(options={"board_id": "board_00000"})  # the env goes on
+        assert info["unconnected"] > 0
+    finally:
+        env.close()
