@@ -17,8 +17,7 @@ import os
 import statistics
 import sys
 import tempfile
-import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
@@ -61,7 +60,8 @@ def _episodes(root: Path, drc: str, limit: int, mode: int, preload: str | None,
             "fully_connected": sum(r["terminated"] for r in records),
             "router_calls": len(router),
             "router_median_ms": 1e3 * statistics.median(router) if router else None,
-            "router_p95_ms": 1e3 * sorted(router)[int(0.95 * (len(router) - 1))] if router else None}
+            "router_p95_ms": (1e3 * sorted(router)[int(0.95 * (len(router) - 1))]
+                              if router else None)}
 
 
 def main() -> int:
@@ -95,7 +95,7 @@ def main() -> int:
                                workers=2, progress=False, limit=args.limit)
         at_k = evaluate_set(root, "d2", "test", Path(tmp) / "report_k", runs=runs, k=args.k,
                             workers=2, progress=False, limit=args.limit)
-    result = {"machine": machine(), "date": datetime.now(timezone.utc).isoformat(timespec="minutes"),
+    result = {"machine": machine(), "date": datetime.now(UTC).isoformat(timespec="minutes"),
               "load_before": load_before, "load_after": os.getloadavg(), "mode": MODES[mode],
               "preload": args.preload, "drc_every_step": per_step, "drc_terminal": terminal,
               "eval_at_1": summary["summary"], "eval_table": summary["table"],

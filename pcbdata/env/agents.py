@@ -12,8 +12,18 @@ from __future__ import annotations
 
 import numpy as np
 
-from pcbdata.env.types import (FINISH, IDLE, MAKE_VIA, NET, NET_END, NET_SELECT, NO_NET, PAD,
-                               START_ROUTE, WALKAROUND)
+from pcbdata.env.types import (
+    FINISH,
+    IDLE,
+    MAKE_VIA,
+    NET,
+    NET_END,
+    NET_SELECT,
+    NO_NET,
+    PAD,
+    START_ROUTE,
+    WALKAROUND,
+)
 
 
 def action(kind: int, net: int = 0, candidate: int = 0, mode: int = WALKAROUND) -> dict:
@@ -112,7 +122,9 @@ class ScriptedAgent:
         static = obs["board_static"]
         rows = np.flatnonzero((static["pads"][:, 0] == 1) & (static["pads"][:, 2] == x)
                               & (static["pads"][:, 3] == y))
-        return [int(l) for l in np.flatnonzero(static["pad_layers"][rows[0]])] if rows.size else []
+        if not rows.size:
+            return []
+        return [int(layer) for layer in np.flatnonzero(static["pad_layers"][rows[0]])]
 
     def _start_options(self, obs, net: int) -> list[tuple]:
         """(x, y, layer) starts: ends of the net's open edges, shortest edge first, layers the
@@ -125,7 +137,8 @@ class ScriptedAgent:
             shared = set(self._pad_layers(obs, *ends[0])) & set(self._pad_layers(obs, *ends[1]))
             for x, y in ends:
                 layers = self._pad_layers(obs, x, y)
-                options += [(x, y, l) for l in sorted(layers, key=lambda l: l not in shared)]
+                ordered = sorted(layers, key=lambda layer: layer not in shared)
+                options += [(x, y, layer) for layer in ordered]
         return options
 
     def _start(self, obs, info) -> dict:

@@ -17,12 +17,23 @@ from pcbdata.env import masks, observation, routing
 from pcbdata.env.actions import action_space, parse_action
 from pcbdata.env.instances import instance_files, make_source
 from pcbdata.env.options import make_options
-from pcbdata.env.reward import (Telescope, board_state, canonical, counted,
-                                unconnected_from_clusters)
+from pcbdata.env.reward import Telescope, board_state, canonical, counted, unconnected_from_clusters
 from pcbdata.env.session import EngineFailure, KicadSession
 from pcbdata.env.static import static_board
-from pcbdata.env.types import (ACTION_TYPES, ENGINE, FINISH, MAKE_LINE, MAKE_VIA, MODES,
-                               NET_END, NET_SELECT, PHASES, ROUTING, START_ROUTE, Head)
+from pcbdata.env.types import (
+    ACTION_TYPES,
+    ENGINE,
+    FINISH,
+    MAKE_LINE,
+    MAKE_VIA,
+    MODES,
+    NET_END,
+    NET_SELECT,
+    PHASES,
+    ROUTING,
+    START_ROUTE,
+    Head,
+)
 
 
 class BoardLoadError(ValueError):
@@ -271,7 +282,8 @@ class RoutingEnv(gym.Env):
                 return self._engine_failed(str(exc))
             terminated, truncated = self._end_flags()
         reward = self._telescope.reward(self._state["phi"], final=terminated or truncated)
-        self._ended, self._terminated, self._truncated = terminated or truncated, terminated, truncated
+        self._terminated, self._truncated = terminated, truncated
+        self._ended = terminated or truncated
         self._refresh_masks()
         return self._observation(), float(reward), terminated, truncated, \
             self._info(rejected=rejected, router=router)
@@ -299,7 +311,8 @@ class RoutingEnv(gym.Env):
         geometry, self._cut = observation.geometry_part(self.static, self._snap,
                                                         space["routing_geometry"])
         phase = masks.phase_of(self._net, self._head)
-        return {"board_static": {k: v.copy() for k, v in self._static_obs.items()},"routing_geometry": geometry,
+        return {"board_static": {k: v.copy() for k, v in self._static_obs.items()},
+                "routing_geometry": geometry,
                 "router_head": observation.head_part(self.static, phase, self._net, self._head,
                                                      self._cands, space["router_head"]),
                 "drc": observation.drc_part(self.static, self._counted(), space["drc"]),

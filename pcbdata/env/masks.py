@@ -9,9 +9,28 @@ from __future__ import annotations
 
 import numpy as np
 
-from pcbdata.env.types import (EMPTY, FINISH, IDLE, MAKE_LINE, MAKE_VIA, MODES, NET, NET_END,
-                               NET_SELECT, NO_NET, PAD, PUSH_N_SHOVE, RING, ROUTING, START_ROUTE,
-                               TRACK_END, VIA, WALKAROUND, Candidate, Head, StaticBoard)
+from pcbdata.env.types import (
+    EMPTY,
+    FINISH,
+    IDLE,
+    MAKE_LINE,
+    MAKE_VIA,
+    MODES,
+    NET,
+    NET_END,
+    NET_SELECT,
+    NO_NET,
+    PAD,
+    PUSH_N_SHOVE,
+    RING,
+    ROUTING,
+    START_ROUTE,
+    TRACK_END,
+    VIA,
+    Candidate,
+    Head,
+    StaticBoard,
+)
 
 MODE_UNAVAILABLE = {
     PUSH_N_SHOVE: "push_n_shove is not implemented yet (issue 11): masked",

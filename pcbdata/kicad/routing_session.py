@@ -14,7 +14,8 @@ from __future__ import annotations
 import os
 import shutil
 
-from pcbdata.kicad.basics import board_drc_text, pcbnew_module as _pcbnew
+from pcbdata.kicad.basics import board_drc_text
+from pcbdata.kicad.basics import pcbnew_module as _pcbnew
 from pcbdata.kicad.drc_report import parse_drc_report
 from pcbdata.kicad.scoring import copper_totals, pad_clusters
 

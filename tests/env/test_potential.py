@@ -48,9 +48,9 @@ def _until_end(env, agent, board_id: str, seed: int) -> dict:
     its final DRC."""
     record = run_episode(env, agent, board_id, seed)
     if not (record["terminated"] or record["truncated"]) and env.unwrapped._drc_fresh is False:
-        obs, reward, terminated, truncated, info = None, 0.0, False, False, None
+        terminated = truncated = False
         while not (terminated or truncated):
-            _, reward, terminated, truncated, info = env.step({"type": 0})
+            _, reward, terminated, truncated, _ = env.step({"type": 0})
             record["reward"] += reward
     return record
 

@@ -10,8 +10,16 @@ import numpy as np
 import pytest
 
 from pcbdata.env.agents import RandomAgent, action
-from pcbdata.env.types import (FINISH, IDLE, MAKE_LINE, MARK_OBSTACLES, NET_END, NET_SELECT,
-                               PUSH_N_SHOVE, START_ROUTE)
+from pcbdata.env.types import (
+    FINISH,
+    IDLE,
+    MAKE_LINE,
+    MARK_OBSTACLES,
+    NET_END,
+    NET_SELECT,
+    PUSH_N_SHOVE,
+    START_ROUTE,
+)
 
 
 def _start(env, net: int = 0):
@@ -192,15 +200,17 @@ def test_dataset_rows_are_a_source(make_env, board_set):
 def test_each_instance_keeps_its_own_rules(tmp_path, board_set):
     """One worker loads many instances: each must be judged by its own project (KiCad keeps a
     loaded project by path, so a reused staging path would leak the previous rules)."""
-    import gymnasium as gym
     import shutil
+
+    import gymnasium as gym
 
     source = board_set / "d2" / "test" / "board_00000"
     for board_id, clearance in (("board_00000", "0.3"), ("board_00001", "0.5")):
         folder = tmp_path / "d2" / "test" / board_id
         shutil.copytree(source, folder)
         project = folder / "board.kicad_pro"
-        project.write_text(project.read_text().replace('"clearance": 0.3', f'"clearance": {clearance}'))
+        text = project.read_text().replace('"clearance": 0.3', f'"clearance": {clearance}')
+        project.write_text(text)
     env = gym.make("pcbdata/Route-d2-v0", root=str(tmp_path))
     try:
         seen = []
@@ -213,8 +223,9 @@ def test_each_instance_keeps_its_own_rules(tmp_path, board_set):
 
 
 def test_a_board_that_does_not_load_is_a_clear_error(tmp_path, board_set):
-    import gymnasium as gym
     import shutil
+
+    import gymnasium as gym
 
     from pcbdata.env.env import BoardLoadError
 
