@@ -7,9 +7,11 @@ walkaround path search, the mark-obstacles line, `finish`, candidates and masks.
 from __future__ import annotations
 
 import time
+from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from gymnasium import spaces
 
 from pcbdata.configs import get_config
 from pcbdata.env import candidates as cand
@@ -42,6 +44,13 @@ class BoardLoadError(ValueError):
 
 class RoutingEnv(gym.Env):
     metadata = {"render_modes": []}
+    # Set by __init__ / reset(); steps run only after reset() (Gymnasium's order).
+    action_space: spaces.Dict
+    observation_space: spaces.Dict
+    static: Any
+    _session: Any
+    _head: Head | None
+    _net: str | None
 
     def __init__(self, **options):
         self.options = o = make_options(**options)
