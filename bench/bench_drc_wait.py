@@ -7,9 +7,14 @@ KiCad's own run-to-run variation from a change made by the preload, see
 
 - the 128 D2 test boards with straight pad-to-pad tracks (many shorts and clearance errors),
 - the same 128 routed by freeroute (`pcbdata route`), checked under their instance's rules,
-- real D3 boards (PCBench snapshot `processed.kicad_pcb`, spread over file sizes).
+- real D3 boards (PCBench snapshot `processed.kicad_pcb`, spread over file sizes);
+
+then runs `pcbdata build d3` on a sample of the snapshot without and with the preload (the
+preload inherited by its workers) and compares the two outputs file by file (per-board timings
+excepted).
 
     .venv/bin/python bench/bench_drc_wait.py [--work DIR] [--runs RUNS --set SET] [--d3 24]
+        [--d3-build 100]
 
 Without --runs the D2 set is built and routed in --work (freeroute, about 4 min on 2 cores).
 Writes bench/results/drc_wait.json.
@@ -40,8 +45,10 @@ SNAPSHOT = ROOT.parent / "shared" / "pcbench" / "pcbench.tar.xz"
 
 def cli(*args: str) -> None:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    subprocess.run([sys.executable, "-m", "pcbdata", *args], check=True, env=env,
-                   stdout=subprocess.DEVNULL)
+    done = subprocess.run([sys.executable, "-m", "pcbdata", *args], env=env, capture_output=True,
+                          text=True)
+    if done.returncode != 0:
+        raise RuntimeError(f"pcbdata {' '.join(args)} failed:\n{done.stderr[-2000:]}")
 
 
 def tracked_d2(work: Path) -> list[str]:
@@ -83,6 +90,65 @@ def real_d3(work: Path, count: int) -> list[str]:
     return [str(p) for p in boards[::step][:count]]
 
 
+def _without_timings(value):
+    if isinstance(value, dict):
+        return {k: _without_timings(v) for k, v in value.items() if k not in ("seconds", "timings")}
+    if isinstance(value, list):
+        return [_without_timings(v) for v in value]
+    return value
+
+
+def _same_outputs(a: Path, b: Path) -> list[str]:
+    """Files that differ between two D3 build outputs, ignoring the recorded timings
+    (`.d3-state/`, the last column of curation_report.csv, seconds/timings in JSON)."""
+    differ = []
+    files = {p.relative_to(a) for p in a.rglob("*") if p.is_file()}
+    files |= {p.relative_to(b) for p in b.rglob("*") if p.is_file()}
+    for rel in sorted(files):
+        if rel.parts[0] == ".d3-state":
+            continue
+        x, y = a / rel, b / rel
+        if not (x.is_file() and y.is_file()):
+            differ.append(str(rel))
+        elif rel.name == "curation_report.json":
+            if _without_timings(json.loads(x.read_text())) != _without_timings(json.loads(y.read_text())):
+                differ.append(str(rel))
+        elif rel.name == "curation_report.csv":
+            strip = lambda t: [line.rsplit(",", 1)[0] for line in t.splitlines()]  # noqa: E731
+            if strip(x.read_text()) != strip(y.read_text()):
+                differ.append(str(rel))
+        elif x.read_bytes() != y.read_bytes():
+            differ.append(str(rel))
+    return differ
+
+
+def d3_build(work: Path, count: int) -> dict | None:
+    from bench_d3 import sample_checkout
+
+    if count <= 0 or not (work / "pcbench" / "PCBs").is_dir():
+        return None
+    sample = work / f"d3-sample-{count}"
+    if not sample.is_dir():
+        sample_checkout(work / "pcbench", sample, count)
+    figures = {"boards": count}
+    for mode, enabled in (("without", False), ("with", True)):
+        out = work / f"d3-build-{mode}"
+        if out.exists():
+            subprocess.run(["rm", "-rf", str(out)], check=True)
+        env = {**os.environ, "PYTHONPATH": str(ROOT), **fastwait.preload_env(enabled)}
+        start = time.monotonic()
+        done = subprocess.run([sys.executable, "-m", "pcbdata", "build", "d3", "--source",
+                               str(sample), "--out", str(out), "--workers", "2", "--quiet"],
+                              env=env, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise RuntimeError(f"pcbdata build d3 ({mode} the preload) failed:\n{done.stderr[-2000:]}")
+        figures[f"wall_s_{mode}"] = time.monotonic() - start
+        figures[f"drc_s_{mode}"] = sum(json.loads(p.read_text()).get("timings", {}).get("drc", 0)
+                                       for p in (out / ".d3-state").glob("*.json"))
+    figures["differing_files"] = _same_outputs(work / "d3-build-without", work / "d3-build-with")
+    return figures
+
+
 def summarise(name: str, paths: list, result: dict) -> dict:
     slow = [r["seconds"] for r in result["slow"]]
     fast = [r["seconds"] for r in result["fast"]]
@@ -111,6 +177,8 @@ def main() -> int:
     parser.add_argument("--set", type=Path, default=None, help="built D2 set that --runs routed")
     parser.add_argument("--runs", type=Path, default=None, help="pcbdata route output (rollout 0)")
     parser.add_argument("--d3", type=int, default=24, help="real D3 boards (default 24)")
+    parser.add_argument("--d3-build", type=int, default=100,
+                        help="boards of the D3 build comparison (default 100; 0: skip)")
     parser.add_argument("--json", type=Path, default=ROOT / "bench" / "results" / "drc_wait.json")
     args = parser.parse_args()
     if fastwait.library_path() is None:
@@ -131,12 +199,19 @@ def main() -> int:
             rows.append(summarise(name, paths, drc_parity(paths)))
             print(f"{name}: {time.monotonic() - start:.0f} s", file=sys.stderr)
     print_table(rows)
+    build = d3_build(work, args.d3_build)
+    if build:
+        print(f"pcbdata build d3, {build['boards']} boards, 2 workers: wall "
+              f"{build['wall_s_without']:.1f} -> {build['wall_s_with']:.1f} s, DRC (sum over boards) "
+              f"{build['drc_s_without']:.1f} -> {build['drc_s_with']:.1f} s, outputs "
+              + ("identical" if not build["differing_files"] else f"DIFFER: {build['differing_files']}"))
     results = {"machine": machine(), "started_utc": started.strftime("%Y-%m-%d %H:%M"),
                "load_average_before": load_before, "load_average_after": os.getloadavg(),
-               "workers": 2, "groups": rows}
+               "workers": 2, "groups": rows, "d3_build": build}
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(results, indent=1, sort_keys=True) + "\n")
-    return 1 if any(r["different"] for r in rows) else 0
+    changed = any(r["different"] for r in rows) or (build and build["differing_files"])
+    return 1 if changed else 0
 
 
 if __name__ == "__main__":
