@@ -11,10 +11,10 @@ import os
 import shutil
 import sys
 import time
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterator
 
 from pcbdata import __version__
 from pcbdata.connector import connector_arrays, npz_bytes
@@ -205,8 +205,8 @@ def check_problem(report: DrcReport, expected_unconnected: int) -> str | None:
 def build_synthetic(root: str | Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
                     workers: int | None = None, log: Callable[[str], None] | None = None,
                     task_timeout: float = 120.0) -> BuildSummary:
-    with locked_root(root) as root:
-        return _build_locked(root, jobs, configs, workers, task_timeout)
+    with locked_root(root) as folder:
+        return _build_locked(folder, jobs, configs, workers, task_timeout)
 
 
 def _build_locked(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],

@@ -13,8 +13,15 @@ import pytest
 from pcbdata.cli import main
 from pcbdata.kicad_writer import board_text
 from pcbdata.sexpr_text import cut_problem
-from tests.evaluator.boards import ROUTE_A, ROUTE_B, base_board, routed, track, write_board, \
-    write_instance
+from tests.evaluator.boards import (
+    ROUTE_A,
+    ROUTE_B,
+    base_board,
+    routed,
+    track,
+    write_board,
+    write_instance,
+)
 
 
 def cut_in_pad_layers(text: str) -> str:
@@ -92,20 +99,20 @@ def test_eval_caches_a_time_out_under_its_limits(one_board_set, tmp_path, capsys
     runs = tmp_path / "runs"
     write_board(dense_board(), runs / "b0" / "0.kicad_pcb")
     out = tmp_path / "report"
-    assert main(eval_args(one_board_set, runs, out, timeout=10)) == 0
+    assert main(eval_args(one_board_set, runs, out, timeout=8)) == 0
     [row] = rollout_rows(out)
-    assert row["reason"] == "engine failure: time limit of 10 s exceeded"
+    assert row["reason"] == "engine failure: time limit of 8 s exceeded"
     capsys.readouterr()
 
     start = time.monotonic()  # same file, same limit: not run again
-    assert main(eval_args(one_board_set, runs, out, timeout=10)) == 0
+    assert main(eval_args(one_board_set, runs, out, timeout=8)) == 0
     assert "1 cached, 0 to score" in capsys.readouterr().err
-    assert time.monotonic() - start < 10
+    assert time.monotonic() - start < 8
     assert rollout_rows(out) == [row]
 
-    assert main(eval_args(one_board_set, runs, out, timeout=11)) == 0  # another limit: run
+    assert main(eval_args(one_board_set, runs, out, timeout=9)) == 0  # another limit: run
     assert "0 cached, 1 to score" in capsys.readouterr().err
-    assert rollout_rows(out)[0]["reason"] == "engine failure: time limit of 11 s exceeded"
+    assert rollout_rows(out)[0]["reason"] == "engine failure: time limit of 9 s exceeded"
 
 
 def test_d3_build_gives_a_cut_board_its_load_failure_without_kicad(tmp_path):

@@ -21,10 +21,11 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from multiprocessing import Pipe
 from pathlib import Path
-from typing import Any, Iterable, Iterator
+from typing import Any
 
 #: Default memory limit of one worker (resident set), in MiB; 0 means no limit.
 DEFAULT_MEMORY_LIMIT_MB = 4096
@@ -153,8 +154,8 @@ class _Worker:
     def __init__(self, env: dict[str, str], memory_limit_mb: int):
         self._env = env
         self.memory_limit_mb = memory_limit_mb
-        self.proc: subprocess.Popen | None = None
-        self.conn = None
+        self.proc: Any = None  # subprocess.Popen while a worker runs
+        self.conn: Any = None  # multiprocessing.connection.Connection to it
         self.tasks_done = 0
         self.closed = False
 

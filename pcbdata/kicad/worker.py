@@ -19,8 +19,8 @@ import os
 import signal
 import sys
 import traceback
+from collections.abc import Callable
 from multiprocessing.connection import Connection
-from typing import Callable
 
 _PR_SET_PDEATHSIG = 1
 
