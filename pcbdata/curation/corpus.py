@@ -72,6 +72,8 @@ def read_routing(path: Path) -> tuple[int, int, int]:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise ValueError(f"final.json is not valid JSON ({exc.msg}, line {exc.lineno})") from None
+    except RecursionError:
+        raise ValueError("final.json is nested too deeply to read") from None
     nets = data.get("nets") if isinstance(data, dict) else None
     if not isinstance(nets, dict):
         raise ValueError("final.json has no nets table")
@@ -115,9 +117,10 @@ def _scan_folder(board: SourceBoard, src: dict) -> None:
     final = board.folder / src["routing_file"]
     meta = board.folder / src["metadata_file"]
     board.metadata, note = read_metadata(meta)
+    if note and board.metadata is None:
+        note += "; attribution unknown (licence NOASSERTION, not redistributable)"
     if note:
-        board.notes.append(note + "; attribution unknown (licence NOASSERTION, not "
-                           "redistributable)")
+        board.notes.append(note)
     try:
         if meta.is_file():
             board.metadata_sha256 = _sha(meta)
@@ -136,8 +139,8 @@ def _scan_folder(board: SourceBoard, src: dict) -> None:
         return
     try:
         board.nets, board.pads, board.final_layers = read_routing(final)
-    except (OSError, ValueError, RecursionError) as exc:
-        board.fate, board.reason = LOAD_FAILURE, str(exc) or "final.json is nested too deeply"
+    except (OSError, ValueError) as exc:
+        board.fate, board.reason = LOAD_FAILURE, str(exc)
 
 
 def _entry_problem(entry: Path, boards_dir: str) -> tuple[str, str] | None:

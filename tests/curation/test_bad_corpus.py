@@ -20,6 +20,8 @@ EXPECTED = {  # name -> (fate, words of the reason)
     "charlie_list_metadata": ("kept", ""),
     "delta_dangling_board": ("missing_input", "processed.kicad_pcb is a dangling symbolic link"),
     "echo_looping_final": ("load_failure", "final.json is a symbolic link loop"),
+    "foxtrot_deep_final": ("load_failure", "final.json is nested too deeply to read"),
+    "golf_author_list": ("kept", ""),
     "loop": ("load_failure", "PCBs/loop is a symbolic link loop"),
     "nowhere": ("missing_input", "PCBs/nowhere is a dangling symbolic link"),
     "stray.txt": ("missing_input", "PCBs/stray.txt is a file, not a board folder"),
@@ -29,7 +31,8 @@ EXPECTED = {  # name -> (fate, words of the reason)
 def make_broken_corpus(root: Path) -> Path:
     boards = root / "PCBs"
     for k, name in enumerate(("alpha", "bravo_bad_metadata", "charlie_list_metadata",
-                              "delta_dangling_board", "echo_looping_final")):
+                              "delta_dangling_board", "echo_looping_final",
+                              "foxtrot_deep_final", "golf_author_list")):
         board = row_board(k + 1, f"broken/{name}")
         _folder(root, name, board_text(board).encode(), final_json(board),
                 f"https://github.com/o/{name}")
@@ -39,6 +42,10 @@ def make_broken_corpus(root: Path) -> Path:
     (boards / "delta_dangling_board" / "processed.kicad_pcb").symlink_to("gone.kicad_pcb")
     (boards / "echo_looping_final" / "final.json").unlink()
     (boards / "echo_looping_final" / "final.json").symlink_to("final.json")
+    (boards / "foxtrot_deep_final" / "final.json").write_text("[" * 100_000)
+    meta = json.loads((boards / "golf_author_list" / "metadata.json").read_text())
+    (boards / "golf_author_list" / "metadata.json").write_text(
+        json.dumps({**meta, "author": ["a", "b"]}))
     (boards / "loop").symlink_to("loop", target_is_directory=True)
     (boards / "nowhere").symlink_to(root / "elsewhere", target_is_directory=True)
     (boards / "stray.txt").write_text("not a board\n")
@@ -72,6 +79,9 @@ def test_unusable_metadata_is_a_note_and_the_board_goes_on(broken):
     assert bravo.notes == ["metadata.json is not valid JSON (Unterminated string starting at, "
                            f"line 1); {UNKNOWN_ATTRIBUTION}"]
     assert charlie.notes == [f"metadata.json is not a JSON object; {UNKNOWN_ATTRIBUTION}"]
+    golf = by_name["golf_author_list"]  # the rest of its metadata is still used
+    assert golf.notes == ["metadata.json: author not text, ignored"]
+    assert golf.metadata["source"] == "https://github.com/o/golf_author_list"
 
 
 def test_the_build_counts_every_entry_and_records_notes_and_warnings(broken, kicad_pool):
