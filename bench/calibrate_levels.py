@@ -33,9 +33,12 @@ def level_row(root: Path, config: str, router: str, boards: int, rollouts: int,
     runs = root / f"runs-{config}-{router}"
     route_set(root, config, "test", runs, router=router, rollouts=rollouts, workers=workers,
               limit=boards, progress=False)
-    at1 = evaluate_set(root, config, "test", root / f"rep1-{config}-{router}", runs=runs, k=1,
+    # One report folder for both: its score cache means the @k pass scores only the rollouts
+    # the @1 pass did not (the files of the @1 report are overwritten; its summary is kept).
+    report = root / f"report-{config}-{router}"
+    at1 = evaluate_set(root, config, "test", report, runs=runs, k=1,
                        workers=4 * workers, limit=boards, progress=False)["summary"]
-    atk = evaluate_set(root, config, "test", root / f"repk-{config}-{router}", runs=runs,
+    atk = evaluate_set(root, config, "test", report, runs=runs,
                        k=rollouts, workers=4 * workers, limit=boards, progress=False)["summary"]
     metas = [json.loads(p.read_text()) for p in runs.glob("*/*.json")]
     return {"config": config, "router": router, "cp_at1": at1["cp"], "cp_atk": atk["cp"],
