@@ -92,12 +92,12 @@ def main() -> int:
 
     mismatches = []
     for (key, _, _), counts in zip(scored, cli):
-        mine = rows[key]
-        if (mine["drv"], mine["unconnected"], mine["drv_by_type"]) != (
+        mine = rows[key]  # cli_counts counts the three warnings: the strict count
+        if (mine["drv_strict"], mine["unconnected"], mine["drv_strict_by_type"]) != (
                 counts["drv"], counts["unconnected"], counts["drv_by_type"]):
             mismatches.append({"rollout": "/".join(key), "evaluator": {
-                "drv": mine["drv"], "unconnected": mine["unconnected"],
-                "drv_by_type": mine["drv_by_type"]}, "kicad_cli": counts})
+                "drv_strict": mine["drv_strict"], "unconnected": mine["unconnected"],
+                "drv_strict_by_type": mine["drv_strict_by_type"]}, "kicad_cli": counts})
     figures = {
         "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
         "machine": f"{os.cpu_count()} cores, {platform.machine()}, 1-min load average at the end "

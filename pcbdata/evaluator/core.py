@@ -11,11 +11,12 @@ from typing import Iterable, Iterator
 
 from pcbdata.kicad.pool import KicadPool
 from pcbdata.errors import UserError
-from pcbdata.evaluator.integrity import integrity_problems
+from pcbdata.evaluator.integrity import rollout_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
-EVALUATOR_VERSION = "1.0.0"
+#: 2.0.0: copper transplanted onto the instance's board; evaluation and strict counts.
+EVALUATOR_VERSION = "2.0.0"
 MEASURE = "pcbdata.kicad.scoring:measure"
 INSTANCE_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
 
@@ -66,10 +67,16 @@ def precheck(path: str | Path) -> str | None:
     return None
 
 
+#: The metric fields of a record; a rollout that is not scored has them empty (CP 0, Rout. 0).
+SCORE_FIELDS = ("cp", "cp_strict", "pot", "pot_strict", "rout", "drv", "drv_strict",
+                "unconnected", "wl", "via", "penalty", "penalty_strict", "phi", "phi_strict",
+                "phi_bare", "phi_bare_strict", "net_count", "drv_by_type", "drv_strict_by_type")
+
+
 def failed_record(status: str, reason: str) -> dict:
-    return {"status": status, "reason": reason, "cp": 0, "rout": 0.0, "pot": None,
-            "drv": None, "unconnected": None, "wl": None, "via": None, "penalty": None,
-            "phi": None, "phi_bare": None, "net_count": None, "drv_by_type": {}}
+    record = {field: None for field in SCORE_FIELDS}
+    record.update(cp=0, cp_strict=0, rout=0.0, drv_by_type={}, drv_strict_by_type={})
+    return {"status": status, "reason": reason, **record}
 
 
 def judge(bare: dict, routed: dict | None, error: str = "",
@@ -80,7 +87,7 @@ def judge(bare: dict, routed: dict | None, error: str = "",
         return failed_record("parse_fail", f"engine failure: {error}")
     if not routed.get("loaded"):
         return failed_record("parse_fail", routed.get("reason", "KiCad could not load the board"))
-    problems = integrity_problems(bare["fingerprint"], routed["fingerprint"])
+    problems = rollout_problems(bare, routed)
     if problems:
         return failed_record("invalid", "; ".join(problems))
     return {"status": "ok", "reason": "", **rollout_metrics(bare, routed, weights)}
@@ -148,8 +155,10 @@ class Evaluator:
             yield index, record
 
     def score(self, instance: str | Path, routed: str | Path) -> dict:
-        """The record of one routed board: status (ok / invalid / parse_fail), reason, cp, pot,
-        rout, drv, unconnected, wl, via, penalty, phi, phi_bare, net_count, drv_by_type."""
+        """The record of one routed board: status (ok / invalid / parse_fail), reason, and
+        `SCORE_FIELDS`: cp, pot, drv, penalty, phi, phi_bare, drv_by_type under the evaluation
+        count, the same with `_strict` under the strict count (drv_strict is DRV+, cp_strict
+        CP+), rout, unconnected, wl, via, net_count."""
         return next(iter(self.score_many([(Path(instance), Path(routed))])))[1]
 
 

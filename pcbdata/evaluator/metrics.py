@@ -1,16 +1,26 @@
 """The benchmark's metrics (SPEC section 4) as pure functions of the engine's measurements.
 
 A measurement (see `pcbdata.kicad.scoring.measure`) is plain data: DRC violations as
-`{type, severity, section, nets, no_net_item}`, pad-holding copper clusters per net, WL, vias,
-KiCad's net count and an integrity fingerprint. Nothing here imports KiCad.
+`{type, severity, section, nets, no_net_item, ...}`, pad-holding copper clusters per net, WL,
+vias, KiCad's net count and an integrity fingerprint. Nothing here imports KiCad. Every
+violation count takes `counting` ("evaluation" or "strict", see `COUNTINGS`); sums are exact
+(`math.fsum`) and per-net buckets sorted, so a result does not depend on the order of the
+violations.
 """
 from __future__ import annotations
 
 import math
+from collections import Counter
 from dataclasses import asdict, dataclass
 
-#: Warning-severity DRC types that still count as violations.
-COUNTED_WARNINGS = frozenset({"via_dangling", "track_dangling", "net_conflict"})
+#: The two ways of counting DRC violations (SPEC 4). "evaluation": error-severity violations
+#: (as the project resolves them) and every unconnected item; the published tables, DRV, CP, f,
+#: Phi and Pot. "strict": the same plus the warnings of `STRICT_WARNINGS`; the report's DRV+ and
+#: CP+, and the routing environment's default training penalty.
+COUNTINGS = ("evaluation", "strict")
+#: Warning types the strict count adds.
+STRICT_WARNINGS = frozenset({"via_dangling", "track_dangling", "net_conflict"})
+COUNTED_WARNINGS = STRICT_WARNINGS  # the name bench/bench_eval.py imports
 #: The shared bucket of counted violations that name no net.
 NO_NET = "<no net>"
 
@@ -31,21 +41,26 @@ class Weights:
 DEFAULT_WEIGHTS = Weights()
 
 
-def is_counted(violation: dict) -> bool:
-    """Counted violation: severity `error` as the project resolves it, or one of the warning
-    types of `COUNTED_WARNINGS`, or any unconnected item; excluded ones never count."""
+def _check_counting(counting: str) -> None:
+    if counting not in COUNTINGS:
+        raise ValueError(f"counting must be one of {', '.join(COUNTINGS)}, not {counting!r}")
+
+
+def is_counted(violation: dict, counting: str = "evaluation") -> bool:
+    """Whether `counting` counts a violation: any unconnected item, severity `error` as the
+    project resolves it, and (strict only) the warnings of `STRICT_WARNINGS`; excluded ones
+    never count."""
+    _check_counting(counting)
     severity = violation["severity"]
     if severity == "excluded":
         return False
-    if violation["section"] == "unconnected":
+    if violation["section"] == "unconnected" or severity == "error":
         return True
-    if severity == "error":
-        return True
-    return severity == "warning" and violation["type"] in COUNTED_WARNINGS
+    return counting == "strict" and severity == "warning" and violation["type"] in STRICT_WARNINGS
 
 
-def counted_violations(violations: list[dict]) -> list[dict]:
-    return [v for v in violations if is_counted(v)]
+def counted_violations(violations: list[dict], counting: str = "evaluation") -> list[dict]:
+    return [v for v in violations if is_counted(v, counting)]
 
 
 def unconnected_count(violations: list[dict]) -> int:
@@ -54,21 +69,24 @@ def unconnected_count(violations: list[dict]) -> int:
 
 
 def violations_per_net(counted: list[dict]) -> dict[str, int]:
-    """x_i: counted violations touching net i. A violation naming two nets counts for both; one
-    naming no net counts once for the shared `NO_NET` bucket."""
+    """x_i: counted violations touching net i, sorted by net. A violation naming two nets
+    counts for both; one naming no net counts once for the shared `NO_NET` bucket."""
     per_net: dict[str, int] = {}
     for violation in counted:
         nets = violation.get("nets") or [NO_NET]
-        for net in sorted(set(nets)):
+        for net in set(nets):
             per_net[net] = per_net.get(net, 0) + 1
-    return per_net
+    return dict(sorted(per_net.items()))
 
 
 def drc_penalty(counted: list[dict], weights: Weights = DEFAULT_WEIGHTS) -> float:
-    """f(s) = 3 ln(1 + X/2) + sum_i ln(1 + x_i/2); X = number of buckets (nets) with x_i > 0."""
+    """f(s) = 3 ln(1 + X/2) + sum_i ln(1 + x_i/2); X = number of buckets (nets) with x_i > 0.
+    Summed exactly (fsum over the nets in sorted order): the order in which KiCad reported the
+    violations cannot change the last digit."""
     per_net = violations_per_net(counted)
     hit = sum(1 for x in per_net.values() if x > 0)
-    return weights.net_weight * math.log1p(hit / 2) + sum(math.log1p(x / 2) for x in per_net.values())
+    return math.fsum([weights.net_weight * math.log1p(hit / 2),
+                      *(math.log1p(x / 2) for x in per_net.values())])
 
 
 def routability(clusters_bare: dict[str, int], clusters_routed: dict[str, int]) -> float:
@@ -86,17 +104,16 @@ def potential(net_count: int, unconnected: int, penalty: float, wl_mm: float, vi
               weights: Weights = DEFAULT_WEIGHTS) -> float:
     """Phi(s) = ln(1 + N) [U(s) = 0] - U(s) - f(s) - lw WL(s) - lv Via(s)."""
     bonus = math.log1p(net_count) if unconnected == 0 else 0.0
-    return bonus - unconnected - penalty - weights.lw * wl_mm - weights.lv * vias
+    return math.fsum([bonus, -unconnected, -penalty, -weights.lw * wl_mm, -weights.lv * vias])
 
 
-def board_state(measurement: dict, weights: Weights = DEFAULT_WEIGHTS) -> dict:
-    """DRV, U, f, WL, Via and Phi of one measured board."""
-    counted = counted_violations(measurement["violations"])
+def board_state(measurement: dict, weights: Weights = DEFAULT_WEIGHTS,
+                counting: str = "evaluation") -> dict:
+    """DRV, U, f, WL, Via and Phi of one measured board under `counting` (see `COUNTINGS`).
+    Needs only `violations`, `wl_mm`, `vias` and `net_count` of the measurement."""
+    counted = counted_violations(measurement["violations"], counting)
     unconnected = unconnected_count(measurement["violations"])
     penalty = drc_penalty(counted, weights)
-    counts: dict[str, int] = {}
-    for violation in counted:
-        counts[violation["type"]] = counts.get(violation["type"], 0) + 1
     return {
         "drv": len(counted),
         "unconnected": unconnected,
@@ -106,29 +123,31 @@ def board_state(measurement: dict, weights: Weights = DEFAULT_WEIGHTS) -> dict:
         "net_count": measurement["net_count"],
         "phi": potential(measurement["net_count"], unconnected, penalty, measurement["wl_mm"],
                          measurement["vias"], weights),
-        "drv_by_type": dict(sorted(counts.items())),
+        "drv_by_type": dict(sorted(Counter(v["type"] for v in counted).items())),
     }
 
 
 def rollout_metrics(bare: dict, routed: dict, weights: Weights = DEFAULT_WEIGHTS) -> dict:
-    """The scores of one routed board against its bare instance (both measurements)."""
-    state = board_state(routed, weights)
-    phi_bare = board_state(bare, weights)["phi"]
+    """The scores of one routed board against its bare instance (both measurements): CP, Pot.,
+    DRV, f, Phi under the evaluation count, and the same under the strict count as
+    `cp_strict`, `pot_strict`, `drv_strict` (DRV+), `penalty_strict`, `phi_strict`."""
     rout = routability(bare["clusters"], routed["clusters"])
-    return {
-        "cp": int(rout == 1.0 and state["drv"] == 0),
-        "pot": state["phi"] - phi_bare,
-        "rout": rout,
-        "drv": state["drv"],
-        "unconnected": state["unconnected"],
-        "wl": state["wl"],
-        "via": state["via"],
-        "penalty": state["penalty"],
-        "phi": state["phi"],
-        "phi_bare": phi_bare,
-        "net_count": state["net_count"],
-        "drv_by_type": state["drv_by_type"],
-    }
+    record: dict = {}
+    for counting, suffix in (("evaluation", ""), ("strict", "_strict")):
+        state = board_state(routed, weights, counting)
+        phi_bare = board_state(bare, weights, counting)["phi"]
+        record.update({
+            f"cp{suffix}": int(rout == 1.0 and state["drv"] == 0),
+            f"pot{suffix}": state["phi"] - phi_bare,
+            f"drv{suffix}": state["drv"],
+            f"penalty{suffix}": state["penalty"],
+            f"phi{suffix}": state["phi"],
+            f"phi_bare{suffix}": phi_bare,
+            f"drv{suffix}_by_type": state["drv_by_type"],
+        })
+    record.update(rout=rout, unconnected=state["unconnected"], wl=state["wl"], via=state["via"],
+                  net_count=state["net_count"])
+    return dict(sorted(record.items()))
 
 
 def selection_key(record: dict) -> tuple:

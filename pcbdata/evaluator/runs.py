@@ -25,9 +25,13 @@ from pcbdata.fsutil import write_atomic
 TIME_KEYS = ("time_s", "time", "seconds", "wall_time_s")
 ROLLOUT_COLUMNS = ["board_id", "rollout", "index", "status", "reason", "cp", "pot", "rout", "drv",
                    "unconnected", "wl", "via", "penalty", "phi", "phi_bare", "net_count", "time",
-                   "drv_by_type", "sha256"]
+                   "drv_by_type", "cp_strict", "drv_strict", "pot_strict", "penalty_strict",
+                   "phi_strict", "phi_bare_strict", "drv_strict_by_type", "sha256"]
+#: What a board row takes from its kept rollout (the @k choice uses the evaluation count).
+BEST_FIELDS = ("cp", "pot", "rout", "drv", "unconnected", "wl", "via", "cp_strict", "drv_strict")
 BOARD_COLUMNS = ["board_id", "n_rollouts", "n_ok", "n_invalid", "n_parse_fail", "parse_fail",
-                 "best_rollout", "cp", "pot", "rout", "drv", "unconnected", "wl", "via", "time"]
+                 "best_rollout", "cp", "pot", "rout", "drv", "unconnected", "wl", "via", "time",
+                 "cp_strict", "drv_strict"]
 CACHE_NAME = "scores.jsonl"
 
 
@@ -89,8 +93,9 @@ def load_cache(path: Path) -> dict[str, dict]:
 
 
 def _mean(values: list) -> float | None:
+    """Mean of the known values, summed exactly so that the order of the rows cannot change it."""
     values = [v for v in values if v is not None]
-    return sum(values) / len(values) if values else None
+    return math.fsum(values) / len(values) if values else None
 
 
 def board_row(board_id: str, records: list[dict]) -> dict:
@@ -103,11 +108,10 @@ def board_row(board_id: str, records: list[dict]) -> dict:
            "n_parse_fail": n_parse, "parse_fail": int(n_parse == len(records)),
            "time": _mean([r.get("time") for r in records])}
     if best is None:
-        row.update(best_rollout=None, cp=0, pot=None, rout=0.0, drv=None, unconnected=None,
-                   wl=None, via=None)
+        row.update({key: None for key in BEST_FIELDS}, best_rollout=None, cp=0, cp_strict=0,
+                   rout=0.0)
     else:
-        row.update(best_rollout=best["rollout"],
-                   **{key: best[key] for key in ("cp", "pot", "rout", "drv", "unconnected", "wl", "via")})
+        row.update({key: best.get(key) for key in BEST_FIELDS}, best_rollout=best["rollout"])
     return row
 
 
@@ -121,9 +125,11 @@ def summarize(board_rows: list[dict], rollouts: list[dict], k: int) -> dict:
         "n_boards": n,
         "k": k,
         "cp": _mean([r["cp"] for r in board_rows]),
+        "cp_strict": _mean([r.get("cp_strict", 0) for r in board_rows]),
         "pot": _mean([r["pot"] for r in board_rows]),
         "rout": _mean([r["rout"] for r in board_rows]),
         "drv": _mean([r["drv"] for r in board_rows]),
+        "drv_strict": _mean([r.get("drv_strict") for r in board_rows]),
         "wl": _mean([r["wl"] for r in board_rows]),
         "via": _mean([r["via"] for r in board_rows]),
         "time": _mean([r.get("time") for r in rollouts]),
@@ -146,13 +152,15 @@ def _fmt(value, digits: int = 2) -> str:
 
 
 def markdown_table(summaries: list[tuple[str, dict]]) -> str:
-    """The results table in the benchmark paper's shape (one row per method)."""
-    lines = ["| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | Parse-fail (%) | Parse-fail @1 (%) | Invalid (%) |",
-             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    """The results table in the benchmark paper's shape (one row per method), then the strict
+    count's diagnostic columns CP+ and DRV+ (SPEC 4) and the failure rates."""
+    lines = ["| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | CP+ (%) | DRV+ | Parse-fail (%) | Parse-fail @1 (%) | Invalid (%) |",
+             "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, s in summaries:
         pct = lambda v: "-" if v is None else f"{100 * v:.1f}"  # noqa: E731
         lines.append(f"| {name} | {pct(s['cp'])} | {_fmt(s['pot'])} | {_fmt(s['rout'], 3)} | "
                      f"{_fmt(s['drv'])} | {_fmt(s['wl'], 1)} | {_fmt(s['via'])} | {_fmt(s['time'])} | "
+                     f"{pct(s.get('cp_strict'))} | {_fmt(s.get('drv_strict'))} | "
                      f"{pct(s['parse_fail'])} | {pct(s['parse_fail_at1'])} | {pct(s['invalid'])} |")
     return "\n".join(lines) + "\n"
 

@@ -1,23 +1,45 @@
-"""The KiCad side of the evaluator: measures one board file with an instance's own rules.
+"""The KiCad side of the evaluator: measures a submitted board on its instance's own board.
 
 Runs inside engine worker processes only (`pcbdata.kicad.pool.KicadPool`). Every function
 returns plain data; the metrics themselves (DRC buckets, routability, potential, integrity) are
 computed from these measurements by the pure modules of `pcbdata.evaluator`.
+
+A submission may only add or change copper (tracks, arcs, vias), and a board file can carry
+rules (legacy net classes, legacy setup keys, local clearance overrides on pads, footprints and
+zones...) that KiCad obeys. So the board KiCad checks is never the submitted one: it is the
+instance's own board, loaded with the instance's project, with the submission's tracks, arcs
+and vias copied onto it (geometry, layers, width, via size/drill/type; nets matched by name).
+Everything else the submission carries is only compared with the instance (`fingerprint`),
+so that a difference makes the rollout invalid instead of changing its score.
 """
 from __future__ import annotations
 
+import math
 import os
+import re
 import tempfile
 
-from pcbdata.kicad.drc_report import parse_drc_report
 from pcbdata.kicad.basics import board_drc_text, pcbnew_module as _pcbnew, stage_with_project
+from pcbdata.kicad.drc_report import NO_NET, parse_drc_report
+from pcbdata.sexpr_text import block_end
 
-#: Design settings stored in the `.kicad_pcb` itself (its `setup` section): a submission must
-#: not change them (e.g. a larger solder-mask expansion hides solder_mask_bridge errors).
-BOARD_FILE_RULES = ("m_SolderMaskExpansion", "m_SolderMaskMinWidth",
-                    "m_SolderMaskToCopperClearance", "m_AllowSoldermaskBridgesInFPs",
-                    "m_SolderPasteMargin", "m_SolderPasteMarginRatio", "m_TentViasFront",
-                    "m_TentViasBack")
+STEM = "scored"
+#: Transplanted items get UUIDs from this seed, so a board gets the same UUIDs in any worker.
+UUID_SEED = 20241229
+#: Heads of top-level board-file blocks that are organisation, not content (their members are
+#: compared on their own), or the writer's identity.
+_IGNORED_BLOCKS = ("version", "generator", "generator_version", "group", "generated")
+_DRAWINGS = ("gr_", "dimension", "target", "image", "barcode", "table")
+_UUID = re.compile(r'\s*\((?:uuid|tstamp) [^()]*\)')
+_NET_NUMBER = re.compile(r'\(net \d+ "')
+_BARE_NET_NUMBER = re.compile(r'\s*\(net \d+\)')
+_FILL_STATE = re.compile(r'\(fill yes\b')
+_SPACES = re.compile(r'\s+')
+_HEAD = re.compile(r'\(([^\s()]+)')
+_BRACKET = re.compile(r'"(?:[^"\\]|\\.)*"|[()]')
+_ATOM = re.compile(r'"(?:[^"\\]|\\.)*"|[^\s"]+')
+_REFERENCE = re.compile(r'\(property "Reference" "((?:[^"\\]|\\.)*)"')
+_LAYER = re.compile(r'\(layer "((?:[^"\\]|\\.)*)"')
 
 
 def stage_board(board_path: str, instance_dir: str, tmp: str) -> str:
@@ -26,77 +48,296 @@ def stage_board(board_path: str, instance_dir: str, tmp: str) -> str:
     and never with files that came with a submission."""
     rules = os.path.join(instance_dir, "board.kicad_dru")
     return stage_with_project(board_path, os.path.join(instance_dir, "board.kicad_pro"),
-                              rules if os.path.isfile(rules) else None, tmp, stem="scored")
+                              rules if os.path.isfile(rules) else None, tmp, stem=STEM)
 
 
-def _xy(point) -> str:
-    return f"{int(point.x)},{int(point.y)}"
+def _load_staged(board_path: str, instance_dir: str, folder: str):
+    """Loads a board staged in its own folder (KiCad keys projects by path, so the two boards
+    of a measurement never share a project object)."""
+    os.makedirs(folder)
+    board = _pcbnew().LoadBoard(stage_board(board_path, instance_dir, folder))
+    if board is None:
+        raise ValueError("pcbnew.LoadBoard returned no board")
+    return board
 
 
-def _layers(item) -> str:
-    return ",".join(sorted(str(n) for n in item.GetLayerSet().Seq()))
+# ---- copper: read from the submission, rebuilt on the instance --------------------------------
+
+def _xy(point) -> list[int]:
+    return [int(point.x), int(point.y)]
 
 
-def fingerprint(board) -> dict[str, list[str]]:
-    """Everything a submission must not change, per category, as sorted lists of strings."""
+def copper_items(board) -> list[dict]:
+    """The submission's tracks, arcs and vias as plain data: only what is transplanted."""
     pcbnew = _pcbnew()
-    nets = sorted(str(n) for n in board.GetNetsByName().keys() if str(n))
-    footprints, pads = [], []
-    for fp in board.GetFootprints():
-        ref = fp.GetReference()
-        footprints.append(f"{ref}|{fp.GetFPIDAsString()}|{_xy(fp.GetPosition())}|"
-                          f"{fp.GetOrientationDegrees():g}|{fp.GetLayer()}")
-        for pad in fp.Pads():
-            size = _pad_size(pad)
-            drill = pad.GetDrillSize()
-            pads.append(f"{ref}:{pad.GetNumber()}|{_xy(pad.GetPosition())}|"
-                        f"{pad.GetOrientationDegrees():g}|{pad.ShowPadShape(pcbnew.F_Cu)}|"
-                        f"{int(size.x)},{int(size.y)}|{int(drill.x)},{int(drill.y)}|"
-                        f"{_layers(pad)}|{pad.GetNetname()}")
-    zones = []
-    for zone in board.Zones():
-        outline = zone.Outline()
-        points = ";".join(_xy(outline.CVertex(i)) for i in range(outline.TotalVertices()))
-        zones.append(f"{zone.GetNetname()}|{_layers(zone)}|{zone.GetIsRuleArea()}|"
-                     f"{zone.GetAssignedPriority()}|{points}")
-    outline, copper_drawings = [], []
-    edge = board.GetLayerID("Edge.Cuts")
-    for drawing in board.GetDrawings():
-        layer = drawing.GetLayer()
-        if layer != edge and not pcbnew.IsCopperLayer(layer):
+    items = []
+    for track in board.GetTracks():
+        kind = track.Type()
+        item = {"net": str(track.GetNetname())}
+        if kind == pcbnew.PCB_VIA_T:
+            copper = track.GetLayerSet().CuStack()
+            item.update(kind="via", at=_xy(track.GetPosition()), via_type=int(track.GetViaType()),
+                        top=int(track.TopLayer()), bottom=int(track.BottomLayer()),
+                        drill=int(track.GetDrillValue()),
+                        widths=sorted({int(track.GetWidth(layer)) for layer in copper}))
+        else:
+            item.update(kind="arc" if kind == pcbnew.PCB_ARC_T else "track",
+                        start=_xy(track.GetStart()), end=_xy(track.GetEnd()),
+                        width=int(track.GetWidth()), layer=int(track.GetLayer()))
+            if kind == pcbnew.PCB_ARC_T:
+                item["mid"] = _xy(track.GetMid())
+        items.append(item)
+    return items
+
+
+def _where(item: dict) -> str:
+    x, y = item.get("at") or item["start"]
+    return f"{item['kind']} at ({x / 1e6:g}, {y / 1e6:g}) mm"
+
+
+def copper_problem(item: dict, board) -> str | None:
+    """Why a submitted track, arc or via cannot stand on the instance's board (a net it lacks,
+    a layer it has no copper on, a via with different sizes on different layers), or None."""
+    pcbnew = _pcbnew()
+    layers = [item["top"], item["bottom"]] if item["kind"] == "via" else [item["layer"]]
+    if item["net"] and board.FindNet(item["net"]) is None:
+        return f"{_where(item)} is on net {item['net']!r}, which the instance lacks"
+    if any(not pcbnew.IsCopperLayer(layer) or not board.IsLayerEnabled(layer) for layer in layers):
+        names = ", ".join(str(board.GetLayerName(layer)) for layer in layers)
+        return f"{_where(item)} is on a layer the instance has no copper on ({names})"
+    if item["kind"] == "via" and len(item["widths"]) != 1:
+        return f"{_where(item)} has different sizes on different layers"
+    return None
+
+
+def copper_problems(items: list[dict], board) -> list[str]:
+    return [p for p in (copper_problem(item, board) for item in items) if p is not None]
+
+
+def _vector(xy: list[int]):
+    return _pcbnew().VECTOR2I(int(xy[0]), int(xy[1]))
+
+
+def _new_item(item: dict, board):
+    pcbnew = _pcbnew()
+    if item["kind"] == "via":
+        via = pcbnew.PCB_VIA(board)
+        via.SetPosition(_vector(item["at"]))
+        via.SetViaType(item["via_type"])
+        via.SetLayerPair(item["top"], item["bottom"])
+        via.SetWidth(item["widths"][0])
+        via.SetDrill(item["drill"])
+        return via
+    track = pcbnew.PCB_ARC(board) if item["kind"] == "arc" else pcbnew.PCB_TRACK(board)
+    track.SetStart(_vector(item["start"]))
+    if item["kind"] == "arc":
+        track.SetMid(_vector(item["mid"]))
+    track.SetEnd(_vector(item["end"]))
+    track.SetWidth(item["width"])
+    track.SetLayer(item["layer"])
+    return track
+
+
+def transplant(items: list[dict], board) -> None:
+    """Replaces the board's tracks, arcs and vias by `items`, but for those with a
+    `copper_problem` (the rollout is invalid then)."""
+    pcbnew = _pcbnew()
+    for old in list(board.GetTracks()):
+        board.Delete(old)
+    pcbnew.KIID.SeedGenerator(UUID_SEED)
+    for item in items:
+        if copper_problem(item, board) is None:
+            new = _new_item(item, board)
+            new.SetNet(board.FindNet(item["net"]))
+            board.Add(new)
+    board.BuildConnectivity()
+
+
+# ---- integrity: everything but copper, as KiCad loaded it -------------------------------------
+
+def _children(text: str) -> tuple[list[str], list[str]]:
+    """(atoms, child blocks) of the s-expression `text` = '(head atom ... (child) ...)',
+    without the head. Only brackets and strings are visited: boards are long."""
+    gaps, children, depth, start = [], [], 0, 0
+    for token in _BRACKET.finditer(text):
+        value = token.group()
+        if value == "(":
+            depth += 1
+            if depth == 1:
+                start = token.end()
+            elif depth == 2:
+                gaps.append(text[start:token.start()])
+                start = token.start()
+        elif value == ")":
+            if depth == 2:
+                children.append(text[start:token.end()])
+                start = token.end()
+            elif depth == 1:
+                gaps.append(text[start:token.start()])
+            depth -= 1
+    return _ATOM.findall(" ".join(gaps))[1:], children
+
+
+def _head(block: str) -> str:
+    match = _HEAD.match(block)
+    return match.group(1) if match else ""
+
+
+def _without_blocks(text: str, head: str) -> str:
+    """`text` without every block `(head ...)` (at any depth)."""
+    out, start = [], 0
+    while (found := text.find(f"({head}", start)) >= 0:
+        out.append(text[start:found])
+        start = block_end(text, found)
+    return "".join(out) + text[start:]
+
+
+def _normal(block: str) -> str:
+    """A block as KiCad wrote it, without what a rewrite may change: UUIDs, net numbers
+    (nets are compared by name), zone fills (fills come from the instance) and layout."""
+    text = _UUID.sub("", block)
+    text = _BARE_NET_NUMBER.sub("", _NET_NUMBER.sub('(net "', text))
+    text = _FILL_STATE.sub("(fill", _without_blocks(text, "filled_polygon"))
+    return _SPACES.sub(" ", text).replace(" )", ")").replace("( ", "(").strip()
+
+
+def _entry(key: str, atoms: list[str], children: list[str]) -> str:
+    """`key|atom|...|child|...` with the children sorted: a rewrite may reorder them."""
+    return "|".join([key, *atoms, *sorted(children)])
+
+
+def _first(pattern: re.Pattern, block: str) -> str:
+    match = pattern.search(block)
+    return match.group(1) if match else ""
+
+
+def _zone_key(children: list[str]) -> str:
+    """`zone NET1 on F.Cu`, `rule area 'keepout' on F.Cu B.Cu`."""
+    fields = {_head(c): c[len(_head(c)) + 1:-1].strip().replace('"', "") for c in children}
+    layers = fields.get("layers") or fields.get("layer", "")
+    if "keepout" in fields:
+        return f"rule area {fields.get('name', '')!r} on {layers}"
+    return f"zone {fields.get('net_name') or 'without net'} on {layers}"
+
+
+def _footprint_entries(block: str, out: dict[str, list[str]]) -> None:
+    """The footprint without its pads, and each pad on its own (`REF:number`)."""
+    ref = _first(_REFERENCE, block)
+    atoms, children = _children(block)
+    pads = [c for c in children if _head(c) == "pad"]
+    out["footprints"].append(_entry(ref, atoms, [c for c in children if _head(c) != "pad"]))
+    for pad in pads:
+        pad_atoms, pad_children = _children(pad)
+        number = pad_atoms[0].strip('"') if pad_atoms else ""
+        out["pads"].append(_entry(f"{ref}:{number}", pad_atoms, pad_children))
+
+
+def file_fingerprint(text: str) -> dict[str, list[str]]:
+    """Per category, sorted entries `key|part|...` of a board file KiCad wrote without copper."""
+    out: dict[str, list[str]] = {k: [] for k in ("footprints", "pads", "zones", "outline",
+                                                 "drawings", "setup")}
+    for block in _children(text)[1]:
+        head, block = _head(block), _normal(block)
+        if head in _IGNORED_BLOCKS or head == "net":  # nets: from the board, not the file
             continue
-        text = f"{drawing.GetClass()}|{layer}|{_xy(drawing.GetPosition())}"
-        if hasattr(drawing, "GetShape") and drawing.GetClass() == "PCB_SHAPE":
-            text += f"|{drawing.GetShape()}|{_xy(drawing.GetStart())}|{_xy(drawing.GetEnd())}"
-            if drawing.GetShape() == pcbnew.SHAPE_T_ARC:
-                text += f"|{_xy(drawing.GetArcMid())}"
-            elif drawing.GetShape() == pcbnew.SHAPE_T_POLY:
-                poly = drawing.GetPolyShape()
-                text += "|" + ";".join(_xy(poly.CVertex(i)) for i in range(poly.TotalVertices()))
-        (outline if layer == edge else copper_drawings).append(text)
-    rules = [f"copper_layers={board.GetCopperLayerCount()}",
-             f"enabled_layers={','.join(str(n) for n in board.GetEnabledLayers().Seq())}"]
-    settings = board.GetDesignSettings()  # the rules a board file (not its project) carries
-    for name in BOARD_FILE_RULES:
-        if hasattr(settings, name):
-            rules.append(f"{name}={getattr(settings, name)}")
-    rules.append(f"thickness={settings.GetBoardThickness()}")
-    return {"nets": nets, "footprints": sorted(footprints), "pads": sorted(pads),
-            "zones": sorted(zones), "outline": sorted(outline),
-            "copper_drawings": sorted(copper_drawings), "rules": rules}
+        if head == "footprint":
+            _footprint_entries(block, out)
+            continue
+        atoms, children = _children(block)
+        if head == "zone":
+            out["zones"].append(_entry(_zone_key(children), atoms, children))
+        elif head.startswith(_DRAWINGS):
+            layer = _first(_LAYER, block)
+            category = "outline" if layer == "Edge.Cuts" else "drawings"
+            out[category].append(_entry(f"{head} on {layer}", atoms, children))
+        else:
+            out["setup"].append(_entry(head, atoms, children))
+    return {k: sorted(v) for k, v in out.items()}
 
 
-def _pad_size(pad):
-    """KiCad 9 pads have per-layer sizes (`GetSize(layer)`); older bindings take no layer."""
-    try:
-        return pad.GetSize(pad.GetPrincipalLayer())
-    except TypeError:
-        return pad.GetSize()
+def _value(value) -> str:
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
 
+
+#: NETCLASS parameters the DRC can use, by getter stem (`Get<stem>Opt` when KiCad has it).
+_NETCLASS_FIELDS = ("Clearance", "TrackWidth", "ViaDiameter", "ViaDrill", "uViaDiameter",
+                    "uViaDrill", "DiffPairWidth", "DiffPairGap", "DiffPairViaGap", "Priority")
+
+
+def _netclass_entry(netclass) -> str:
+    parts = [str(netclass.GetName())]
+    for field in _NETCLASS_FIELDS:
+        getter = getattr(netclass, f"Get{field}Opt", None) or getattr(netclass, f"Get{field}")
+        parts.append(f"{field}={_value(getter())}")
+    return "|".join(parts)
+
+
+def netclass_fingerprint(board) -> list[str]:
+    """Every net class with its parameters, and the class each net resolves to."""
+    settings = board.GetDesignSettings().m_NetSettings
+    classes = [settings.GetDefaultNetclass()] + [nc for _, nc in settings.GetNetclasses().items()]
+    entries = [f"class {_netclass_entry(nc)}" for nc in classes]
+    for name in sorted(str(n) for n in board.GetNetsByName().keys() if str(n)):
+        effective = settings.GetEffectiveNetClass(name)
+        entries.append(f"net {name}|{_netclass_entry(effective)}")
+    return sorted(entries)
+
+
+#: What KiCad records when a board file carries rules of its own (it then obeys them).
+_LEGACY_FLAGS = (("board file carries legacy design settings", "m_LegacyDesignSettingsLoaded"),
+                 ("board file carries legacy net classes", "m_LegacyNetclassesLoaded"),
+                 ("board file carries a legacy edge clearance",
+                  "m_LegacyCopperEdgeClearanceLoaded"))
+
+
+def rules_fingerprint(board) -> list[str]:
+    """The design settings as the loaded board resolves them (scalars of KiCad's
+    BOARD_DESIGN_SETTINGS), DRC exclusions, and whether the file carried legacy rules (KiCad
+    then obeys the board file instead of the project)."""
+    settings = board.GetDesignSettings()
+    entries = [f"{key}|{_value(getattr(board, name))}" for key, name in _LEGACY_FLAGS]
+    for name in dir(settings):
+        value = getattr(settings, name) if name.startswith("m_") else None
+        if isinstance(value, (bool, int, float, str)):
+            entries.append(f"{name}|{_value(value)}")
+    exclusions = sorted(str(e) for e in settings.m_DrcExclusions)
+    entries.append("m_DrcExclusions|" + (";".join(exclusions) or "none"))
+    entries.append(f"board thickness|{settings.GetBoardThickness()}")
+    return sorted(entries)
+
+
+def _all_zones(board):
+    yield from board.Zones()
+    for footprint in board.GetFootprints():
+        yield from footprint.Zones()
+
+
+def fingerprint(board, folder: str) -> dict[str, list[str]]:
+    """Everything a submission must not change, per category, as sorted lists of strings: the
+    board as KiCad writes it without its tracks, arcs and vias (nets, footprints with every
+    local override, pads, zones with their settings, outline, drawings, layers and setup), the
+    net classes and the design rules as the board resolves them. Deletes the board's copper."""
+    for track in list(board.GetTracks()):
+        board.Delete(track)
+    for zone in _all_zones(board):
+        zone.UnFill()  # fills follow the copper; the instance's are used
+    path = os.path.join(folder, "fingerprint.kicad_pcb")
+    _pcbnew().PCB_IO_KICAD_SEXPR().SaveBoard(path, board)
+    with open(path, encoding="utf-8", errors="replace") as handle:
+        result = file_fingerprint(handle.read())
+    result["nets"] = sorted(str(n) for n in board.GetNetsByName().keys() if str(n))
+    result["netclasses"] = netclass_fingerprint(board)
+    result["rules"] = rules_fingerprint(board)
+    return result
+
+
+# ---- measurements on the transplanted board ---------------------------------------------------
 
 def pad_clusters(board) -> dict[str, int]:
     """Per net name: the number of connected copper clusters of that net holding >= 1 pad."""
-    conn = board.GetConnectivity()  # built by LoadBoard
+    conn = board.GetConnectivity()
     parent: dict[str, str] = {}
 
     def find(key: str) -> str:
@@ -136,46 +377,75 @@ def pad_clusters(board) -> dict[str, int]:
 
 
 def copper_totals(board) -> tuple[float, int]:
-    """(total length of track segments and arcs in mm, number of vias)."""
+    """(total length of track segments and arcs in mm, number of vias); the lengths are summed
+    exactly (fsum), so the order of the tracks cannot change the last digit."""
     pcbnew = _pcbnew()
-    length_nm, vias = 0.0, 0
+    lengths, vias = [], 0
     for track in board.GetTracks():
         kind = track.Type()
         if kind == pcbnew.PCB_VIA_T:
             vias += 1
         elif kind in (pcbnew.PCB_TRACE_T, pcbnew.PCB_ARC_T):
-            length_nm += track.GetLength()  # an arc's length is its arc length
-    return length_nm / 1e6, vias
+            lengths.append(track.GetLength())  # an arc's length is its arc length
+    return math.fsum(lengths) / 1e6, vias
+
+
+_SECTIONS = {"violations": 0, "unconnected": 1, "footprint": 2}
+
+
+def violation_order(violation: dict) -> tuple:
+    """The canonical order of DRC violations: section, type, severity, positions, nets, message,
+    item descriptions. KiCad's DRC runs in threads and reports in no fixed order."""
+    return (_SECTIONS.get(violation["section"], 3), violation["type"], violation["severity"],
+            violation["positions"], violation["nets"], violation["message"], violation["items"])
+
+
+def violation_records(report) -> list[dict]:
+    """A parsed DRC report as plain violations, each with its items sorted, in the canonical
+    order (`violation_order`)."""
+    records = []
+    for v in report.violations:
+        items = sorted(v.items, key=lambda i: (i.x_mm, i.y_mm, i.description))
+        records.append({"type": v.type, "severity": v.severity, "section": v.section,
+                        "rule": v.rule, "message": v.message, "nets": v.nets,
+                        "no_net_item": any(i.net is None or i.net == NO_NET for i in items),
+                        "positions": [[i.x_mm, i.y_mm] for i in items],
+                        "items": [i.description for i in items]})
+    return sorted(records, key=violation_order)
 
 
 def drc_violations(board) -> list[dict]:
-    """KiCad DRC (all severities, all track errors) as a list of
-    {type, severity, section, nets} dicts."""
-    parsed = parse_drc_report(board_drc_text(board))
-    return [{"type": v.type, "severity": v.severity, "section": v.section, "nets": v.nets,
-             "no_net_item": any(i.net is None or i.net == "<no net>" for i in v.items)}
-            for v in parsed.violations]
+    """KiCad DRC (all severities, all track errors), canonically ordered (`violation_records`)."""
+    return violation_records(parse_drc_report(board_drc_text(board)))
 
 
 def measure(board_path: str, instance_dir: str) -> dict:
-    """Loads `board_path` with the instance's project and returns every raw measurement the
-    evaluator needs: DRC violations, pad clusters per net, WL, vias, net count, fingerprint."""
-    pcbnew = _pcbnew()
+    """Every raw measurement the evaluator needs for `board_path` scored on the instance in
+    `instance_dir`: the fingerprint of the submitted board and the problems of its copper, and,
+    on the instance's board with that copper transplanted, the DRC violations, pad clusters per
+    net, WL, vias and net count."""
     with tempfile.TemporaryDirectory(prefix="pcbdata-score-") as tmp:
-        staged = stage_board(board_path, instance_dir, tmp)
         try:
-            board = pcbnew.LoadBoard(staged)
+            submitted = _load_staged(board_path, instance_dir, os.path.join(tmp, "submitted"))
         except Exception as exc:  # noqa: BLE001 - KiCad raises IOError with a parser message
             return {"loaded": False, "reason": f"KiCad could not load the board: {exc}".strip()}
-        if board is None:
-            return {"loaded": False, "reason": "KiCad could not load the board"}
-        wl, vias = copper_totals(board)
-        return {
-            "loaded": True,
-            "net_count": int(board.GetNetCount()),
-            "clusters": pad_clusters(board),
-            "wl_mm": wl,
-            "vias": vias,
-            "fingerprint": fingerprint(board),
-            "violations": drc_violations(board),
-        }
+        return _measure_loaded(submitted, instance_dir, tmp)
+
+
+def _measure_loaded(submitted, instance_dir: str, tmp: str) -> dict:
+    items = copper_items(submitted)
+    board = _load_staged(os.path.join(instance_dir, "board.kicad_pcb"), instance_dir,
+                         os.path.join(tmp, "instance"))
+    problems = copper_problems(items, board)
+    transplant(items, board)
+    wl, vias = copper_totals(board)
+    return {
+        "loaded": True,
+        "net_count": int(board.GetNetCount()),
+        "clusters": pad_clusters(board),
+        "wl_mm": wl,
+        "vias": vias,
+        "copper_problems": problems,
+        "fingerprint": fingerprint(submitted, tmp),
+        "violations": drc_violations(board),
+    }

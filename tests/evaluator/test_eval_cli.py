@@ -70,7 +70,9 @@ def test_eval_reports(board_set, runs, tmp_path, capsys):
     assert boards["b0"]["cp"] == "1" and boards["b0"]["time"] == "2.0"
     assert boards["b1"]["parse_fail"] == "1" and boards["b1"]["cp"] == "0"
     assert boards["b1"]["rout"] == "0.0"
-    assert boards["b2"]["best_rollout"] == "2" and boards["b2"]["cp"] == "0"  # tie with 3
+    assert boards["b2"]["best_rollout"] == "2" and boards["b2"]["cp"] == "1"  # tie with 3
+    # b2's dangling track is a warning: in the strict count only (CP+, DRV+)
+    assert (boards["b2"]["cp_strict"], boards["b2"]["drv_strict"]) == ("0", "1")
     assert boards["b3"]["parse_fail"] == "1"
     rollouts = read_csv(out / "per_rollout.csv")
     assert len(rollouts) == 3 + 3 + 3 + 1
@@ -79,17 +81,17 @@ def test_eval_reports(board_set, runs, tmp_path, capsys):
     assert by[("b1", "1")]["status"] == "parse_fail" and by[("b1", "1")]["reason"]
     assert by[("b1", "2")]["reason"] == "missing file" and by[("b1", "2")]["time"] == "5.0"
     assert ("b1", "3") not in by  # beyond k = 3
-    assert by[("b2", "1")]["status"] == "invalid" and "pads changed" in by[("b2", "1")]["reason"]
+    assert by[("b2", "1")]["status"] == "invalid" and "footprints changed" in by[("b2", "1")]["reason"]
     assert by[("b3", "missing")]["reason"] == "missing file"
-    assert summary["cp"] == pytest.approx(0.25)
+    assert summary["cp"] == pytest.approx(0.5) and summary["cp_strict"] == pytest.approx(0.25)
     assert summary["rout"] == pytest.approx(0.5)  # b0 1, b2 1, b1 and b3 count 0
     assert summary["parse_fail"] == pytest.approx(0.5)
     assert summary["parse_fail_at1"] == pytest.approx(4 / 10)
     assert summary["invalid"] == pytest.approx(1 / 10)
     assert summary["time"] == pytest.approx((1 + 2 + 3 + 5) / 4)  # every rollout's time
-    assert summary["drv"] == pytest.approx(0.5)
+    assert summary["drv"] == 0.0 and summary["drv_strict"] == pytest.approx(0.5)
     md = (out / "summary.md").read_text()
-    assert "| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) |" in md
+    assert "| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | CP+ (%) | DRV+ |" in md
 
     # resumable: a second run scores nothing again and gives the same reports
     before = (out / "scores.jsonl").read_text()

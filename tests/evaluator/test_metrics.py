@@ -28,18 +28,26 @@ def v(type_, severity="error", section="violations", nets=("A",)):
 
 
 def test_counted_buckets():
-    assert is_counted(v("clearance"))
-    assert is_counted(v("unconnected_items", section="unconnected"))
-    assert is_counted(v("unconnected_items", severity="warning", section="unconnected"))
+    for counting in ("evaluation", "strict"):
+        assert is_counted(v("clearance"), counting)
+        assert is_counted(v("unconnected_items", section="unconnected"), counting)
+        assert is_counted(v("unconnected_items", severity="warning", section="unconnected"), counting)
+        assert not is_counted(v("silk_overlap", severity="warning"), counting)
+        assert not is_counted(v("clearance", severity="ignore"), counting)
+        assert not is_counted(v("clearance", severity="excluded"), counting)
+        assert not is_counted(v("track_dangling", severity="excluded"), counting)
+        assert not is_counted(v("unconnected_items", severity="excluded", section="unconnected"),
+                              counting)
     for kind in ("via_dangling", "track_dangling", "net_conflict"):
-        assert is_counted(v(kind, severity="warning"))
-    assert not is_counted(v("silk_overlap", severity="warning"))
-    assert not is_counted(v("clearance", severity="ignore"))
-    assert not is_counted(v("clearance", severity="excluded"))
-    assert not is_counted(v("track_dangling", severity="excluded"))
-    assert not is_counted(v("unconnected_items", severity="excluded", section="unconnected"))
+        assert is_counted(v(kind, severity="warning"), "strict")
+        assert not is_counted(v(kind, severity="warning"), "evaluation")
+        assert not is_counted(v(kind, severity="warning"))  # the evaluation count by default
+        assert is_counted(v(kind, severity="error"))  # a project may make them errors
     mixed = [v("clearance"), v("silk_overlap", severity="warning"), v("via_dangling", severity="warning")]
-    assert [x["type"] for x in counted_violations(mixed)] == ["clearance", "via_dangling"]
+    assert [x["type"] for x in counted_violations(mixed)] == ["clearance"]
+    assert [x["type"] for x in counted_violations(mixed, "strict")] == ["clearance", "via_dangling"]
+    with pytest.raises(ValueError, match="counting"):
+        is_counted(v("clearance"), "lenient")
 
 
 def test_unconnected_count_skips_excluded():
@@ -90,10 +98,29 @@ def test_rollout_metrics_clean_and_gain():
     assert m["phi_bare"] == pytest.approx(phi_bare)
     assert m["pot"] == pytest.approx(math.log(4) - 0.16 - phi_bare)
     assert (m["cp"], m["rout"], m["drv"], m["wl"], m["via"]) == (1, 1.0, 0, 80.0, 0)
-    # routability 1 but one counted warning: not a clean pass
+    assert (m["cp_strict"], m["drv_strict"], m["pot_strict"]) == (1, 0, m["pot"])
+    # routability 1 and one dangling-track warning: a clean pass, not a strict one (CP+)
     m = rollout_metrics(bare, measurement([v("track_dangling", severity="warning")],
                                           {"A": 1, "B": 1}))
-    assert (m["cp"], m["drv"]) == (0, 1)
+    assert (m["cp"], m["drv"], m["drv_by_type"]) == (1, 0, {})
+    assert (m["cp_strict"], m["drv_strict"], m["drv_strict_by_type"]) == (0, 1, {"track_dangling": 1})
+    f = 3 * math.log(1.5) + math.log(1.5)
+    assert m["penalty_strict"] == pytest.approx(f) and m["penalty"] == 0.0
+    assert m["pot"] - m["pot_strict"] == pytest.approx(f)
+    assert m["phi_bare"] == m["phi_bare_strict"]  # the bare board has no warnings
+
+
+def test_board_state_takes_the_counting():
+    from pcbdata.evaluator.metrics import board_state
+
+    board = {"violations": [v("clearance", nets=("A", "B")), v("via_dangling", severity="warning"),
+                            v("unconnected_items", section="unconnected", nets=("B",))],
+             "wl_mm": 10.0, "vias": 1, "net_count": 3}
+    evaluation, strict = board_state(board), board_state(board, counting="strict")
+    assert (evaluation["drv"], strict["drv"]) == (2, 3)
+    assert evaluation["unconnected"] == strict["unconnected"] == 1
+    assert strict["penalty"] > evaluation["penalty"] and strict["phi"] < evaluation["phi"]
+    assert board_state(board, counting="evaluation") == evaluation
 
 
 def rec(index, pot, rout=1.0, drv=0, wl=10.0, via=0, status="ok"):
@@ -143,6 +170,22 @@ def test_integrity_reports_each_changed_category():
     assert integrity_problems(bare, dict(bare)) == []
     moved = {**bare, "pads": ["P1:1|0,0|x", "P2:1|6,5|x"], "outline": []}
     problems = integrity_problems(bare, moved)
-    assert len(problems) == 2
-    assert problems[0].startswith("pads changed") and "'P2:1'" in problems[0]
-    assert problems[1].startswith("board outline changed")
+    assert problems == ["pads changed (1 changed, e.g. 'P2:1': 5,5 -> 6,5)",
+                        "board outline changed (1 missing, e.g. 'e')"]
+
+
+def test_integrity_names_what_changed():
+    from pcbdata.evaluator.integrity import describe_change, rollout_problems
+
+    assert describe_change("P1|(at 1 2)|(size 2 2)", "P1|(at 1 2)|(size 2 2)|(clearance 0.001)") \
+        == "with (clearance 0.001)"
+    assert describe_change("class Default|Clearance=300000|TrackWidth=300000",
+                           "class Default|Clearance=0|TrackWidth=100000") \
+        == "Clearance=300000 -> Clearance=0 (and 1 more)"
+    assert describe_change("m_MinClearance|0", "m_MinClearance|100000") == "0 -> 100000"
+    assert describe_change("x|(a 1)|(b 2)", "x|(b 2)|(a 1)|(b 2)") == "with (b 2)"
+    fingerprint = {"nets": ["A"], "pads": ["P10:1|x", "P2:1|x"]}
+    changed = {"nets": ["A"], "pads": ["P10:1|y", "P2:1|y"]}
+    routed = {"fingerprint": changed, "copper_problems": ["via at (1, 2) mm is on net 'Z', ..."]}
+    assert rollout_problems({"fingerprint": fingerprint}, routed) == [
+        "via at (1, 2) mm is on net 'Z', ...", "pads changed (2 changed, e.g. 'P2:1': x -> y)"]

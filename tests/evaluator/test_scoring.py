@@ -71,12 +71,15 @@ def test_clearance_violation(evaluator, instance, tmp_path):
 
 
 def test_dangling_track(evaluator, instance, tmp_path):
+    # a warning: not in the evaluation count (DRV, CP, Pot.), in the strict one (DRV+, CP+)
     stub = track(30, 10, 30, 20, "A")
     r = score(evaluator, instance, tmp_path, routed(base_board(), [ROUTE_A, ROUTE_B, stub]))
-    assert (r["cp"], r["rout"], r["drv"], r["drv_by_type"]) == (0, 1.0, 1, {"track_dangling": 1})
+    assert (r["cp"], r["rout"], r["drv"], r["drv_by_type"]) == (1, 1.0, 0, {})
+    assert (r["cp_strict"], r["drv_strict"], r["drv_strict_by_type"]) == (0, 1, {"track_dangling": 1})
     assert r["wl"] == pytest.approx(90.0)
-    assert r["pot"] == pytest.approx(LN_1_PLUS_N - 3 * math.log(1.5) - math.log(1.5)
-                                     - 0.002 * 90 - PHI_BARE)
+    assert r["pot"] == pytest.approx(LN_1_PLUS_N - 0.002 * 90 - PHI_BARE)
+    assert r["pot_strict"] == pytest.approx(LN_1_PLUS_N - 3 * math.log(1.5) - math.log(1.5)
+                                            - 0.002 * 90 - PHI_BARE)
 
 
 def test_short_between_two_nets(evaluator, instance, tmp_path):
@@ -138,12 +141,15 @@ def test_submission_rules_are_ignored(evaluator, instance, tmp_path):
                         folder / "board.kicad_pcb")
     (folder / "board.kicad_pro").write_text('{"board": {"design_settings": {"rule_severities": '
                                             '{"track_dangling": "ignore"}}}}')
-    assert evaluator.score(instance, board)["drv_by_type"] == {"track_dangling": 1}
+    assert evaluator.score(instance, board)["drv_strict_by_type"] == {"track_dangling": 1}
 
 
 @pytest.mark.parametrize("change, category", [
-    (lambda b: replace(b, pads=[pad(11, 10, "A")] + b.pads[1:]), "pads changed"),
-    (lambda b: replace(b, pads=b.pads[:3]), "pads changed"),
+    (lambda b: replace(b, pads=[pad(11, 10, "A")] + b.pads[1:]),
+     "footprints changed (1 changed, e.g. 'P1': (at 10 10) -> (at 11 10))"),
+    (lambda b: replace(b, pads=b.pads[:3]), "pads changed (1 missing, e.g. 'P4:1')"),
+    (lambda b: replace(b, pads=[replace(b.pads[0], size=mm_to_nm(2))] + b.pads[1:]),
+     "pads changed (1 changed, e.g. 'P1:1': (size 2.4 2.4) -> (size 2 2))"),
     (lambda b: replace(b, width=mm_to_nm(61)), "board outline changed"),
     (lambda b: replace(b, pads=b.pads + [pad(30, 20, "C"), pad(30, 25, "C")]), "nets changed"),
 ])
@@ -166,7 +172,7 @@ def test_wrong_instance_is_invalid(evaluator, instance, tmp_path):
     other = replace(base_board(), pads=[pad(12, 10, "A"), pad(50, 10, "A"), pad(10, 30, "B"),
                                         pad(50, 30, "B")])
     r = score(evaluator, instance, tmp_path, other)
-    assert r["status"] == "invalid" and "pads changed" in r["reason"]
+    assert r["status"] == "invalid" and "footprints changed" in r["reason"]
 
 
 @pytest.mark.parametrize("content, reason", [
