@@ -24,6 +24,7 @@ from pcbdata.synthetic_build import (
     SplitJob,
     build_synthetic,
     check_sample,
+    locked_root,
 )
 
 Log = Callable[[str], None]
@@ -98,11 +99,12 @@ def build_configs(out: str | Path, specs: list[ConfigSpec],
     configs = {spec.name: _config_info(spec, options) for spec in specs}
     workers = options.resolved_workers()
     options.log(f"pcbdata build: {', '.join(sorted(configs))} -> {out} ({workers} workers)")
-    summary = build_synthetic(out, jobs, configs, workers=workers, log=options.log)
-    if options.publish:
-        from pcbdata.publish import publish_set
+    with locked_root(out):  # a second build into the folder waits for this one
+        summary = build_synthetic(out, jobs, configs, workers=workers, log=options.log)
+        if options.publish:
+            from pcbdata.publish import publish_set
 
-        publish_set(out, list(configs))
+            publish_set(out, list(configs))
     return summary
 
 
@@ -135,10 +137,14 @@ def build_d3(source: str | Path, out: str | Path, recipe: str | Path | None = No
         raise UserError("--workers must be at least 1")
     if tasks_per_worker < 1:
         raise UserError("--tasks-per-worker must be at least 1")
-    summary = build(source, out, load_recipe(recipe), workers=workers or os.cpu_count() or 1,
-                    log=log, tasks_per_worker=tasks_per_worker)
-    if publish:
-        from pcbdata.publish import publish_set
+    from pcbdata.fsutil import folder_lock
 
-        publish_set(out, sorted(summary["tiers"]))
+    with folder_lock(out, "built"):  # a second build into the folder waits for this one
+        summary = build(source, out, load_recipe(recipe),
+                        workers=workers or os.cpu_count() or 1, log=log,
+                        tasks_per_worker=tasks_per_worker)
+        if publish:
+            from pcbdata.publish import publish_set
+
+            publish_set(out, sorted(summary["tiers"]))
     return summary

@@ -29,11 +29,12 @@ from pcbdata.curation import corpus
 from pcbdata.curation.picks import COLUMNS, Row, assign_tiers, evaluation_subsets, number_rows
 from pcbdata.curation.recipe import KeepCriteria, Recipe
 from pcbdata.errors import EngineError, UserError
-from pcbdata.fsutil import remove_stale_temps, write_atomic, write_dir_atomic
+from pcbdata.fsutil import folder_lock, remove_stale_temps, write_atomic, write_dir_atomic
 from pcbdata.hashing import sha256_bytes, sha256_text
 from pcbdata.kicad.drc_report import DrcReport
-from pcbdata.kicad.pool import KicadError, KicadPool, Outcome
+from pcbdata.kicad.pool import KicadError, KicadPool, Outcome, is_limit_error
 from pcbdata.manifest import FORMAT, d3_facts, merge_configs, read_manifest, write_manifest
+from pcbdata.sexpr_text import cut_problem
 from pcbdata.textio import canonical_json, csv_text
 from pcbdata.tree import (
     ATTRIBUTION_CSV,
@@ -163,10 +164,33 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
     """Builds the D3 set of `source` into `out`; returns the summary (fate and tier counts).
 
     `tasks_per_worker`: KiCad keeps memory between boards (tens of MB each), so workers are
-    recycled after this many boards; it does not change the output.
+    recycled after this many boards; it does not change the output. The folder is locked
+    for the build (`fsutil.folder_lock`): a second build into it waits.
     """
-    log = log or _stderr
-    source, out = Path(source), Path(out)
+    with folder_lock(out, "built"):  # a second build into the folder waits for this one
+        return _build(Path(source), Path(out), recipe, workers, log or _stderr, pool,
+                      tasks_per_worker)
+
+
+def limit_state_key(key: str, pool) -> str:
+    """State key of a board that hit the pool's time or memory limit: the same board under
+    the same limits is not run again by a resumed build (a raised limit runs it again)."""
+    limits = f"{key}\0{float(pool.task_timeout):g}\0{getattr(pool, 'memory_limit_mb', 0)}"
+    return sha256_text(limits)[:32]
+
+
+def _cut_board(board: corpus.SourceBoard) -> dict | None:
+    """The load-failure state of a truncated board file, decided before KiCad sees it: KiCad
+    can spin on such a file until the time limit."""
+    problem = cut_problem(board.board_path.read_bytes())
+    if problem is None:
+        return None
+    return {"fate": corpus.LOAD_FAILURE, "reason": f"load: {problem}", "errors": 0,
+            "error_types": {}, "unconnected": 0, "seconds": 0.0}
+
+
+def _build(source: Path, out: Path, recipe: Recipe, workers: int, log: Log,
+           pool: KicadPool | None, tasks_per_worker: int) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     remove_stale_temps(out)
     started = time.perf_counter()
@@ -214,7 +238,7 @@ def _process(boards: list[corpus.SourceBoard], recipe: Recipe, kicad_version: st
                               "error_types": {}, "unconnected": 0, "seconds": 0.0}
             continue
         key = state_key(b, recipe, kicad_version)
-        cached = store.get(key)
+        cached = store.get(key) or store.get(limit_state_key(key, pool)) or _cut_board(b)
         if cached is not None:
             states[b.name] = cached
         else:
@@ -227,8 +251,10 @@ def _process(boards: list[corpus.SourceBoard], recipe: Recipe, kicad_version: st
     for done, outcome in enumerate(pool.map(TASK, args), start=1):
         b, key = todo[outcome.index]
         state, files = _state(outcome, recipe.keep, key, b.name)
-        if state["fate"] != corpus.ENGINE_FAILURE:  # a crash or time limit is retried
-            store.put(key, state, files)              # by the next run
+        if state["fate"] != corpus.ENGINE_FAILURE:
+            store.put(key, state, files)
+        elif is_limit_error(outcome.error):  # a crash is retried by the next run
+            store.put(limit_state_key(key, pool), state, None)
         states[b.name] = state
         reason = f" ({state['reason']})" if state["reason"] else ""
         log(f"[{done}/{len(todo)}] {b.name}: {state['fate']}{reason} {outcome.seconds:.1f} s")

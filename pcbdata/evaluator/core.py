@@ -13,6 +13,7 @@ from pcbdata.kicad.pool import KicadPool
 from pcbdata.errors import UserError
 from pcbdata.evaluator.integrity import rollout_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
+from pcbdata.sexpr_text import cut_problem
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
 #: 2.0.0: copper transplanted onto the instance's board; evaluation and strict counts.
@@ -64,7 +65,7 @@ def precheck(path: str | Path) -> str | None:
         return "not a .kicad_pcb file (binary data)"
     if not head.lstrip().startswith(b"(kicad_pcb"):
         return "not a .kicad_pcb file (does not start with '(kicad_pcb')"
-    return None
+    return cut_problem(path.read_bytes())  # KiCad's parser can hang on a cut file
 
 
 #: The metric fields of a record; a rollout that is not scored has them empty (CP 0, Rout. 0).

@@ -20,7 +20,8 @@ from pathlib import Path
 from pcbdata.errors import UserError
 from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, instance_hash, sha256_file
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, pick_best
-from pcbdata.fsutil import write_atomic
+from pcbdata.fsutil import folder_lock, write_atomic
+from pcbdata.kicad.pool import is_limit_error, memory_limit_from_env
 
 TIME_KEYS = ("time_s", "time", "seconds", "wall_time_s")
 ROLLOUT_COLUMNS = ["board_id", "rollout", "index", "status", "reason", "cp", "pot", "rout", "drv",
@@ -77,6 +78,13 @@ def list_rollouts(runs: Path, board_id: str, k: int) -> list[tuple[str, Path]]:
 def cache_key(instance_key: str, routed_hash: str, weights: Weights) -> str:
     text = json.dumps([EVALUATOR_VERSION, instance_key, routed_hash, weights.as_dict()],
                       sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def limit_cache_key(key: str, limits: tuple[float, int]) -> str:
+    """Cache key of a rollout that hit the engine's time or memory limit (seconds, MiB): the
+    same file is not run again under the same limits, and is under other ones."""
+    text = json.dumps([key, "limits", float(limits[0]), int(limits[1])])
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -181,8 +189,9 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                  task_timeout: float = 300.0, progress: bool = True,
                  limit: int | None = None) -> dict:
     """Scores a submission (or the reference boards) on one config/split; writes REPORT files
-    and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl`. `limit` scores
-    only the first N boards of the split (in board-id order)."""
+    and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl` (time and
+    memory limits hit too, under the same limits). `limit` scores only the first N boards of
+    the split (in board-id order). A second call on the same `out` waits for the first."""
     root, out = Path(root), Path(out)
     if k < 1:
         raise UserError("--k must be at least 1")
@@ -206,57 +215,63 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
     if not reference and not Path(runs).is_dir():
         raise UserError(f"{runs}: no such RUNS directory")
     out.mkdir(parents=True, exist_ok=True)
-    cache_path = out / CACHE_NAME
-    cache = load_cache(cache_path)
-    inst_keys = {d: instance_hash(d) for _, d in instances}
-    records: list[dict | None] = [None] * len(plan)
-    keys: list[str] = []
-    todo = []
-    for i, (board_id, rollout, index, directory, path) in enumerate(plan):
-        routed_hash = sha256_file(path) if path.is_file() else "missing"
-        key = cache_key(inst_keys[directory], routed_hash, weights)
-        keys.append(key)
-        if key in cache:
-            records[i] = dict(cache[key])
-        else:
-            todo.append(i)
-    if progress:
-        print(f"pcbdata eval: {len(plan)} rollouts on {len(instances)} boards; "
-              f"{len(plan) - len(todo)} cached, {len(todo)} to score", file=sys.stderr)
-    if todo:
-        with Evaluator(workers=workers, weights=weights, task_timeout=task_timeout) as evaluator, \
-                open(cache_path, "a", encoding="utf-8") as cache_file:
-            pairs = [(plan[i][3], plan[i][4]) for i in todo]
-            done = 0
-            for j, record in evaluator.score_many(pairs):
-                i = todo[j]
-                done += 1
-                record["sha256"] = sha256_file(plan[i][4]) if plan[i][4].is_file() else ""
-                records[i] = record
-                if record["reason"].startswith("engine failure"):
-                    continue  # a crash or time limit may not recur: score it again next run
-                cache_file.write(json.dumps({"key": keys[i], "record": record}, sort_keys=True) + "\n")
-                cache_file.flush()
-                if progress and (done % 50 == 0 or done == len(todo)):
-                    print(f"  scored {done}/{len(todo)}", file=sys.stderr)
-    rollout_rows = []
-    for (board_id, rollout, index, directory, path), record in zip(plan, records):
-        row = {**record, "board_id": board_id, "rollout": rollout, "index": index,
-               "time": rollout_time(path) if not reference else None}
-        rollout_rows.append(row)
-    by_board: dict[str, list[dict]] = {}
-    for row in rollout_rows:
-        by_board.setdefault(row["board_id"], []).append(row)
-    board_rows = [board_row(board_id, by_board[board_id]) for board_id, _ in instances]
-    summary = summarize(board_rows, rollout_rows, 1 if reference else k)
-    summary.update(config=config, split=split, evaluator_version=EVALUATOR_VERSION,
-                   weights=weights.as_dict(), reference=reference)
-    label = name or ("Reference" if reference else Path(runs).name)
-    table = markdown_table([(label, summary)])
-    write_atomic(out / "per_rollout.csv", _csv(rollout_rows, ROLLOUT_COLUMNS))
-    write_atomic(out / "per_board.csv", _csv(board_rows, BOARD_COLUMNS))
-    write_atomic(out / "summary.json", json.dumps(summary, indent=1, sort_keys=True) + "\n")
-    header = (f"# {label} on {config} / {split}\n\n@k = {summary['k']}, {summary['n_boards']} boards, "
-              f"{summary['n_rollouts']} rollouts, evaluator {EVALUATOR_VERSION}\n\n")
-    write_atomic(out / "summary.md", header + table)
-    return {"summary": summary, "table": table, "rollouts": rollout_rows, "boards": board_rows}
+    with folder_lock(out, "written"):  # a second eval into REPORT waits: reports never mix
+        cache_path = out / CACHE_NAME
+        cache = load_cache(cache_path)
+        limits = (task_timeout, memory_limit_from_env())
+        inst_keys = {d: instance_hash(d) for _, d in instances}
+        records: list[dict | None] = [None] * len(plan)
+        keys: list[str] = []
+        todo = []
+        for i, (board_id, rollout, index, directory, path) in enumerate(plan):
+            routed_hash = sha256_file(path) if path.is_file() else "missing"
+            key = cache_key(inst_keys[directory], routed_hash, weights)
+            keys.append(key)
+            cached = cache.get(key) or cache.get(limit_cache_key(key, limits))
+            if cached is not None:
+                records[i] = dict(cached)
+            else:
+                todo.append(i)
+        if progress:
+            print(f"pcbdata eval: {len(plan)} rollouts on {len(instances)} boards; "
+                  f"{len(plan) - len(todo)} cached, {len(todo)} to score", file=sys.stderr)
+        if todo:
+            with Evaluator(workers=workers, weights=weights, task_timeout=task_timeout) as evaluator, \
+                    open(cache_path, "a", encoding="utf-8") as cache_file:
+                pairs = [(plan[i][3], plan[i][4]) for i in todo]
+                done = 0
+                for j, record in evaluator.score_many(pairs):
+                    i = todo[j]
+                    done += 1
+                    record["sha256"] = sha256_file(plan[i][4]) if plan[i][4].is_file() else ""
+                    records[i] = record
+                    key = keys[i]
+                    if record["reason"].startswith("engine failure"):
+                        if not is_limit_error(record["reason"].removeprefix("engine failure: ")):
+                            continue  # a crash may not recur: score it again next run
+                        key = limit_cache_key(key, limits)  # a time-out holds under its limits
+                    cache_file.write(json.dumps({"key": key, "record": record}, sort_keys=True) + "\n")
+                    cache_file.flush()
+                    if progress and (done % 50 == 0 or done == len(todo)):
+                        print(f"  scored {done}/{len(todo)}", file=sys.stderr)
+        rollout_rows = []
+        for (board_id, rollout, index, directory, path), record in zip(plan, records):
+            row = {**record, "board_id": board_id, "rollout": rollout, "index": index,
+                   "time": rollout_time(path) if not reference else None}
+            rollout_rows.append(row)
+        by_board: dict[str, list[dict]] = {}
+        for row in rollout_rows:
+            by_board.setdefault(row["board_id"], []).append(row)
+        board_rows = [board_row(board_id, by_board[board_id]) for board_id, _ in instances]
+        summary = summarize(board_rows, rollout_rows, 1 if reference else k)
+        summary.update(config=config, split=split, evaluator_version=EVALUATOR_VERSION,
+                       weights=weights.as_dict(), reference=reference)
+        label = name or ("Reference" if reference else Path(runs).name)
+        table = markdown_table([(label, summary)])
+        write_atomic(out / "per_rollout.csv", _csv(rollout_rows, ROLLOUT_COLUMNS))
+        write_atomic(out / "per_board.csv", _csv(board_rows, BOARD_COLUMNS))
+        write_atomic(out / "summary.json", json.dumps(summary, indent=1, sort_keys=True) + "\n")
+        header = (f"# {label} on {config} / {split}\n\n@k = {summary['k']}, {summary['n_boards']} boards, "
+                  f"{summary['n_rollouts']} rollouts, evaluator {EVALUATOR_VERSION}\n\n")
+        write_atomic(out / "summary.md", header + table)
+        return {"summary": summary, "table": table, "rollouts": rollout_rows, "boards": board_rows}
