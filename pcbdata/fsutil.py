@@ -12,6 +12,7 @@ import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
+from pcbdata.errors import UserError
 from pcbdata.hashing import sha256_bytes, sha256_file  # noqa: F401 - re-exported for callers
 
 
@@ -135,3 +136,30 @@ def folder_lock(folder: str | os.PathLike, doing: str = "built",
             handle.truncate(0)  # at rest the file is empty: a finished folder is the same
             handle.flush()      # whichever process built it
             fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def os_reason(exc: OSError) -> str:
+    return exc.strerror or (os.strerror(exc.errno) if exc.errno else str(exc))
+
+
+def output_folder(path: str | os.PathLike, option: str = "--out") -> Path:
+    """Creates `path` (and its parents) if needed and proves a file can be written in it;
+    UserError naming the folder and the OS reason otherwise. Folders this made are removed
+    again on failure, so a refused run leaves nothing behind."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise UserError(f"{option} {path}: exists and is not a folder")
+    created = [p for p in (path, *path.parents) if not p.exists()]
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".pcbdata-probe.", suffix=".tmp", dir=path)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        for folder in created:  # deepest first
+            try:
+                folder.rmdir()
+            except OSError:
+                pass
+        raise UserError(f"{option} {path}: cannot write there ({os_reason(exc)})") from None
+    return path

@@ -96,12 +96,16 @@ def check_sample(count: int, sample: int | None) -> list[int]:
 
 
 def generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> dict:
-    """Worker task: `{"entries": [...]}`, or `{"user_error": message}` when a generator cannot
-    make a board (a `UserError` the parent raises again, so the user sees one clear line)."""
+    """Worker task: `{"entries": [...]}`; `{"user_error": message}` when a generator cannot
+    make a board, `{"os_error": [errno, strerror, filename]}` when the output cannot be
+    written (a full or read-only disk). The parent raises them again, so the user sees one
+    clear line, not an engine failure."""
     try:
         return {"entries": _generate_chunk(root, job, seed, indices)}
     except UserError as exc:
         return {"user_error": str(exc)}
+    except OSError as exc:
+        return {"os_error": [exc.errno, exc.strerror, exc.filename]}
 
 
 def _generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> list[dict]:
@@ -265,6 +269,8 @@ def _build_locked(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInf
 def _chunk_entries(outcome, job: SplitJob, chunk: list[int]) -> list[dict]:
     if outcome.ok and "user_error" in outcome.value:
         raise GenerationError(outcome.value["user_error"])
+    if outcome.ok and "os_error" in outcome.value:
+        raise OSError(*outcome.value["os_error"])
     if not outcome.ok:
         raise EngineError(f"generating {job.config}/{job.split} boards {chunk[0]}-{chunk[-1]} "
                           f"failed: {outcome.error}")

@@ -55,7 +55,7 @@ from pcbdata.tree import (
 STATE_DIR = D3_STATE_DIR
 BOARD_FILES = (BOARD_FILE, PROJECT_FILE, REFERENCE_FILE)
 REPORT_COLUMNS = ["name", "fate", "reason", "errors", "error_types", "unconnected",
-                  "board_identical", "board_id", "source_board_sha256", "seconds"]
+                  "board_identical", "board_id", "source_board_sha256", "seconds", "notes"]
 ATTRIBUTION_COLUMNS = ["board_id", "name", "tier", "source_repository", "author", "licence",
                        "licence_from", "redistributable", "collection_licence", "licence_text"]
 TASK = "pcbdata.kicad.upgrade:process_board"
@@ -200,6 +200,9 @@ def _build(source: Path, out: Path, recipe: Recipe, workers: int, log: Log,
         raise UserError(f"{source}: no board folders under {recipe.source.boards_dir}/")
     log(f"d3: {len(boards)} board folders in {source}; recipe {recipe.version} "
         f"({recipe.sha256[:12]})")
+    for b in boards:  # e.g. an unusable metadata.json: the board goes on, the note is kept
+        for note in b.notes:
+            log(f"d3: warning: {b.name}: {note}")
     _retract_manifest(out)
 
     own_pool = pool is None
@@ -220,6 +223,8 @@ def _build(source: Path, out: Path, recipe: Recipe, workers: int, log: Log,
 
     summary = _finish(source, out, recipe, boards, states, store, kicad_version)
     summary["wall_seconds"] = round(time.perf_counter() - started, 1)
+    for warning in summary["warnings"]:
+        log(f"d3: warning: {warning}")
     fates = summary["fates"]
     log("d3: fates: " + ", ".join(f"{k} {fates.get(k, 0)}" for k in corpus.FATES))
     log("d3: tiers: " + ", ".join(f"{c} {n['full']} (test {n['test']})"
@@ -307,6 +312,7 @@ class _Curated:
     notes: list[dict]
     attributions: dict[str, dict]
     snapshot: str
+    warnings: list[str]  # corpus files skipped (unreadable GitHub metadata, ...)
 
 
 def _curate(source: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
@@ -319,11 +325,12 @@ def _curate(source: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
                         for b in kept])
     tiers = assign_tiers(rows, recipe.tiers.a_size, recipe.tiers.b_max_pads)
     subsets, notes = evaluation_subsets(tiers, recipe)
-    github = attr.load_github_licences(source, recipe)
+    warnings: list[str] = []
+    github = attr.load_github_licences(source, recipe, warnings)
     attributions = {r.name: attr.attribute(r.name, by_name[r.name].metadata, github, recipe)
                     for r in rows}
     return _Curated(boards, by_name, states, rows, tiers, subsets, notes, attributions,
-                    corpus.snapshot_sha256(boards))
+                    corpus.snapshot_sha256(boards), warnings)
 
 
 def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
@@ -404,10 +411,11 @@ def _write_tables(source: Path, out: Path, recipe: Recipe, cur: _Curated,
     _write_if_changed(out / CURATION_REPORT_JSON, canonical_json({
         "recipe": {"version": recipe.version, "sha256": recipe.sha256},
         "kicad_version": kicad_version, "source_snapshot_sha256": cur.snapshot,
-        "fates": fates, "tiers": tier_counts, "overrides": cur.notes, "boards": report}))
+        "fates": fates, "tiers": tier_counts, "overrides": cur.notes, "warnings": cur.warnings,
+        "boards": report}))
     _write_attribution(source, out, recipe, cur)
     return {"fates": fates, "tiers": tier_counts, "overrides": cur.notes,
-            "boards": len(cur.boards)}
+            "boards": len(cur.boards), "warnings": cur.warnings}
 
 
 def _report_rows(cur: _Curated) -> list[dict]:
@@ -422,7 +430,8 @@ def _report_rows(cur: _Curated) -> list[dict]:
             "unconnected": s.get("unconnected", 0),
             "board_identical": s.get("compat", {}).get("board_identical", ""),
             "board_id": board_ids.get(b.name, ""), "source_board_sha256": b.board_sha256,
-            "uuids_fixed": s.get("uuids_fixed", 0), "seconds": s.get("seconds", 0.0)})
+            "uuids_fixed": s.get("uuids_fixed", 0), "seconds": s.get("seconds", 0.0),
+            "notes": "; ".join(b.notes)})
     return report
 
 
