@@ -27,6 +27,8 @@ from multiprocessing import Pipe
 from pathlib import Path
 from typing import Any
 
+from pcbdata.kicad import fastwait
+
 #: Default memory limit of one worker (resident set), in MiB; 0 means no limit.
 DEFAULT_MEMORY_LIMIT_MB = 4096
 MEMORY_ENV = "PCBDATA_WORKER_MEMORY_MB"
@@ -260,7 +262,9 @@ class KicadPool:
         self.task_timeout = task_timeout
         self.tasks_per_worker = tasks_per_worker
         self.memory_limit_mb = memory_limit_from_env(memory_limit_mb)
-        self._slots = [_Worker(dict(env or {}), self.memory_limit_mb)
+        # KiCad's DRC sleeps 250 ms per call without it (fastwait.py); `env` may turn it off
+        env = {**fastwait.preload_env(), **(env or {})}
+        self._slots = [_Worker(env, self.memory_limit_mb)
                        for _ in range(self.workers)]
 
     def __enter__(self) -> "KicadPool":
