@@ -6,13 +6,13 @@ moves files and plain data, and computes the metrics with `pcbdata.evaluator.met
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Iterable, Iterator
 
-from pcbdata.kicad.pool import KicadPool
 from pcbdata.errors import UserError
 from pcbdata.evaluator.integrity import rollout_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
+from pcbdata.kicad.pool import KicadPool
 from pcbdata.sexpr_text import cut_problem
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
@@ -108,7 +108,7 @@ class Evaluator:
         self.pool = pool or KicadPool(workers=workers, task_timeout=task_timeout)
         self._bare: dict[str, dict] = {}
 
-    def __enter__(self) -> "Evaluator":
+    def __enter__(self) -> Evaluator:
         return self
 
     def __exit__(self, *exc) -> None:

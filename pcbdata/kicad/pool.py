@@ -267,7 +267,7 @@ class KicadPool:
         self._slots = [_Worker(env, self.memory_limit_mb)
                        for _ in range(self.workers)]
 
-    def __enter__(self) -> "KicadPool":
+    def __enter__(self) -> KicadPool:
         return self
 
     def __exit__(self, *exc) -> None:

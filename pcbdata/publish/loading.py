@@ -96,14 +96,7 @@ def _load_split(config: str, split: str, root: str | Path, **kwargs):
     if split not in card[config]:
         raise suggest(split, card[config], "split")
     shards = card[config][split]
-    recorded = _recorded_hashes(root)
-    for rel in shards:
-        if not (root / rel).is_file():
-            raise UserError(f"{root / rel}: shard listed in the card is missing; run "
-                            f"`pcbdata publish {root}` again")
-        if rel in recorded and sha256_file(root / rel) != recorded[rel]:
-            raise UserError(f"{root / rel}: corrupt parquet shard (its sha256 differs from "
-                            f"{STATE_NAME}); run `pcbdata verify {root}`")
+    _check_recorded(root, shards)
     if _empty_split(root, shards):
         # `datasets` cannot read a split with no rows ("corresponds to no data"), e.g. a D3 tier
         # that a small corpus leaves empty; the columns still come from the shard's schema.
@@ -113,7 +106,7 @@ def _load_split(config: str, split: str, root: str | Path, **kwargs):
     if "cache_dir" not in kwargs:
         # datasets prepares all splits
         every = [rel for paths in card[config].values() for rel in paths]
-        kwargs["cache_dir"] = str(_cache_dir(root, every, recorded))
+        kwargs["cache_dir"] = str(_cache_dir(root, every, _recorded_hashes(root)))
     try:
         return datasets.load_dataset(str(root), config, split=split, **kwargs)
     except Exception:  # noqa: BLE001
