@@ -244,7 +244,8 @@ def structure_clearance(dsn: str) -> float:
     structure = re.search(r"\(structure\s", dsn)
     if structure is None:
         return 0.0
-    match = re.search(r"\(clearance\s+([\d.]+)\)", dsn[structure.start():_block(dsn, structure.start())])
+    block = dsn[structure.start():_block(dsn, structure.start())]
+    match = re.search(r"\(clearance\s+([\d.]+)\)", block)
     return float(match.group(1)) if match else 0.0
 
 

@@ -82,8 +82,9 @@ def _check_config(config_dir: Path, config_name: str, config: dict, shards: set[
                 problems.append(f"{rel}: split folder not in the manifest "
                                 f"({_count(entry)} entries unlisted)")
             else:
+                is_shard = rel.endswith(".parquet")
                 problems.append(f"{rel}: extra file not in the manifest"
-                                + (" (a shard the card does not list)" if rel.endswith(".parquet") else ""))
+                                + (" (a shard the card does not list)" if is_shard else ""))
     return problems
 
 
@@ -100,7 +101,8 @@ def _check_split(split_dir: Path, where: str, boards: dict) -> list[str]:
         else:
             problems += _check_board(split_dir / board_id, f"{where}/{board_id}", board["files"])
     for extra in sorted(on_disk - set(boards)):
-        what = "leftover of an interrupted run" if _is_leftover(extra) else "extra entry not in the manifest"
+        what = ("leftover of an interrupted run" if _is_leftover(extra)
+                else "extra entry not in the manifest")
         problems.append(f"{where}/{extra}: {what}")
     return problems
 
@@ -178,7 +180,8 @@ def _unlisted_pictures(root: Path) -> list[str]:
 def _published_problems(root: Path, manifest: dict) -> list[str]:
     from pcbdata.publish import verify_published
 
-    problems = [f"{p.name}: leftover of an interrupted publish" for p in sorted(root.glob(".*.tmp"))]
+    problems = [f"{p.name}: leftover of an interrupted publish"
+                for p in sorted(root.glob(".*.tmp"))]
     if (root / "README.md").exists() or (root / "publish.json").exists():
         problems += verify_published(root, manifest)
     return problems

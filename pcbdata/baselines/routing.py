@@ -44,12 +44,14 @@ def rollout_plans(router: str, router_cmd: str | None, rollouts: int,
         return [RolloutPlan("pcbdata.kicad.kicad_tools_route:route_board", (seed, router_timeout),
                             f"kicad-tools --seed {seed}", kicad_tools.version()) for seed in seeds]
     if router not in ROUTERS:
-        raise UserError(f"unknown router {router!r}; use --router {' | '.join(ROUTERS)} or --router-cmd")
+        raise UserError(f"unknown router {router!r}; "
+                        f"use --router {' | '.join(ROUTERS)} or --router-cmd")
     plans = []
     for r in range(rollouts):
         argv, fix, label = specctra.router_command(router, router_cmd, r)
         version = specctra.freeroute_version() if fix else "unknown"
-        plans.append(RolloutPlan(specctra.ROUTE, (argv, router_timeout, fix, fix, fix), label, version))
+        route_args = (argv, router_timeout, fix, fix, fix)
+        plans.append(RolloutPlan(specctra.ROUTE, route_args, label, version))
     return plans
 
 

@@ -36,7 +36,8 @@ def run(args) -> int:
     for check in checks:
         problems += check.problems
     manifest = read_manifest(args.dir)
-    boards = sum(len(s["boards"]) for c in manifest["configs"].values() for s in c["splits"].values())
+    boards = sum(len(s["boards"]) for c in manifest["configs"].values()
+                 for s in c["splits"].values())
     for line in problems[: args.max_lines]:
         print(line)
     if len(problems) > args.max_lines:

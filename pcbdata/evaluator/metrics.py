@@ -65,7 +65,8 @@ def counted_violations(violations: list[dict], counting: str = "evaluation") -> 
 
 def unconnected_count(violations: list[dict]) -> int:
     """U(s): the number of unconnected items (open ratsnest edges); excluded ones don't count."""
-    return sum(1 for v in violations if v["section"] == "unconnected" and v["severity"] != "excluded")
+    return sum(1 for v in violations
+               if v["section"] == "unconnected" and v["severity"] != "excluded")
 
 
 def violations_per_net(counted: list[dict]) -> dict[str, int]:

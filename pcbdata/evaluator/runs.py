@@ -45,7 +45,8 @@ def list_instances(root: Path, config: str, split: str) -> list[tuple[str, Path]
     base = root / config / split
     if not base.is_dir():
         configs = sorted(p.name for p in root.iterdir() if p.is_dir()) if root.is_dir() else []
-        raise UserError(f"{base}: no such config/split in {root} (configs: {', '.join(configs) or 'none'})")
+        raise UserError(f"{base}: no such config/split in {root} "
+                        f"(configs: {', '.join(configs) or 'none'})")
     boards = sorted((p.name, p) for p in base.iterdir() if (p / "board.kicad_pcb").is_file())
     if not boards:
         raise UserError(f"{base}: holds no boards")
@@ -82,7 +83,8 @@ def read_rollout_time(board_file: Path) -> tuple[float | None, str]:
     valid = (isinstance(value, (int, float)) and not isinstance(value, bool)
              and math.isfinite(value) and 0 <= value <= MAX_TIME_S)
     if not valid:
-        shown = repr(value)[:40] if isinstance(value, (bool, int, float, str)) else type(value).__name__
+        is_scalar = isinstance(value, (bool, int, float, str))
+        shown = repr(value)[:40] if is_scalar else type(value).__name__
         return None, (f"{sidecar.name}: invalid {key} {shown} (expected a number of seconds "
                       f"from 0 to {MAX_TIME_S:g})")
     return float(value), ""
@@ -126,7 +128,8 @@ def runs_warnings(runs: Path, split_ids: list[str], scored_ids: list[str], k: in
             continue
         out["not_a_rollout"] += sorted(f"{board_id}/{p.name}" for p in folder.iterdir()
                                        if p.suffix not in (".kicad_pcb", ".json"))
-        stems = {p.stem for p in folder.glob("*.kicad_pcb")} | {p.stem for p in folder.glob("*.json")}
+        stems = ({p.stem for p in folder.glob("*.kicad_pcb")}
+                 | {p.stem for p in folder.glob("*.json")})
         out["beyond_k"] += [f"{board_id}/{stem}" for stem in sorted(stems, key=natural_key)[k:]]
     return out
 
@@ -198,7 +201,8 @@ def summarize(board_rows: list[dict], rollouts: list[dict], k: int) -> dict:
         "via": _mean([r["via"] for r in board_rows]),
         "time": _mean([r.get("time") for r in rollouts]),
         "parse_fail": (sum(r["parse_fail"] for r in board_rows) / n) if n else None,
-        "parse_fail_at1": (sum(r["status"] == "parse_fail" for r in rollouts) / n_roll) if n_roll else None,
+        "parse_fail_at1": ((sum(r["status"] == "parse_fail" for r in rollouts) / n_roll)
+                           if n_roll else None),
         "invalid": (sum(r["status"] == "invalid" for r in rollouts) / n_roll) if n_roll else None,
         "n_rollouts": n_roll,
         "n_invalid": sum(r["status"] == "invalid" for r in rollouts),
@@ -218,12 +222,14 @@ def _fmt(value, digits: int = 2) -> str:
 def markdown_table(summaries: list[tuple[str, dict]]) -> str:
     """The results table in the benchmark paper's shape (one row per method), then the strict
     count's diagnostic columns CP+ and DRV+ (SPEC 4) and the failure rates."""
-    lines = ["| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | CP+ (%) | DRV+ | Parse-fail (%) | Parse-fail @1 (%) | Invalid (%) |",
+    lines = ["| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | "
+             "CP+ (%) | DRV+ | Parse-fail (%) | Parse-fail @1 (%) | Invalid (%) |",
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, s in summaries:
         pct = lambda v: "-" if v is None else f"{100 * v:.1f}"  # noqa: E731
         lines.append(f"| {name} | {pct(s['cp'])} | {_fmt(s['pot'])} | {_fmt(s['rout'], 3)} | "
-                     f"{_fmt(s['drv'])} | {_fmt(s['wl'], 1)} | {_fmt(s['via'])} | {_fmt(s['time'])} | "
+                     f"{_fmt(s['drv'])} | {_fmt(s['wl'], 1)} | {_fmt(s['via'])} | "
+                     f"{_fmt(s['time'])} | "
                      f"{pct(s.get('cp_strict'))} | {_fmt(s.get('drv_strict'))} | "
                      f"{pct(s['parse_fail'])} | {pct(s['parse_fail_at1'])} | {pct(s['invalid'])} |")
     return "\n".join(lines) + "\n"

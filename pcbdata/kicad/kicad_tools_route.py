@@ -52,7 +52,8 @@ def default_rules(project_path: str) -> dict:
     with open(project_path, encoding="utf-8") as handle:
         project = json.load(handle)
     classes = project.get("net_settings", {}).get("classes", [])
-    default = next((c for c in classes if c.get("name") == "Default"), classes[0] if classes else {})
+    fallback = classes[0] if classes else {}
+    default = next((c for c in classes if c.get("name") == "Default"), fallback)
     rules = project.get("board", {}).get("design_settings", {}).get("rules", {})
     return {"track_width": float(default.get("track_width", 0.2)),
             "clearance": float(default.get("clearance", 0.2)),
@@ -78,7 +79,8 @@ def command(board: str, out: str, rules: dict, class_map: str, seed: int,
         raise UserError("kicad-tools is not installed; run: pip install 'pcbdata[kicad-tools]'")
     return [exe, "route", board, "-o", out, "--layers", "2", "--no-auto-layers",
             "--trace-width", f"{rules['track_width']:g}", "--clearance", f"{rules['clearance']:g}",
-            "--via-diameter", f"{rules['via_diameter']:g}", "--via-drill", f"{rules['via_drill']:g}",
+            "--via-diameter", f"{rules['via_diameter']:g}",
+            "--via-drill", f"{rules['via_drill']:g}",
             "--edge-clearance", f"{rules['edge_clearance']:g}", "--net-class-map", class_map,
             "--seed", str(seed), "--timeout", f"{timeout:g}", "--quiet"]
 
@@ -106,7 +108,8 @@ def route_board(board_path: str, instance_dir: str, out_path: str, seed: int,
                     "seconds": seconds, "router_seconds": seconds, "router_cpu_seconds": cpu}
         if not os.path.isfile(routed) or os.path.getsize(routed) == 0:
             tail = result.stderr.decode(errors="replace").strip().splitlines()[-1:] or [""]
-            return {"ok": False, "reason": f"router failed (exit {result.returncode}) {tail[0]}".strip(),
+            reason = f"router failed (exit {result.returncode}) {tail[0]}".strip()
+            return {"ok": False, "reason": reason,
                     "seconds": seconds, "router_seconds": seconds, "router_cpu_seconds": cpu}
         os.makedirs(os.path.dirname(os.path.abspath(out_path)), exist_ok=True)
         partial = out_path + ".partial"
@@ -125,4 +128,6 @@ def _run(argv: list[str], cwd: str, timeout: float):
     except subprocess.TimeoutExpired:
         result = None
     after = os.times()
-    return result, (after.children_user - before.children_user) + (after.children_system - before.children_system)
+    cpu = ((after.children_user - before.children_user)
+           + (after.children_system - before.children_system))
+    return result, cpu

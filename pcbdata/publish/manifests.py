@@ -1,9 +1,9 @@
 """The manifests of released sets, shipped in the package under `pcbdata/resources/releases/`.
 
-One file per config, `pcbdata/resources/releases/<config>.json.gz` (gzip without timestamp, so the bytes depend
-only on the content): the manifest of the released build restricted to that config, with every
-board's sha256. A test rebuilds the small splits (validation, test) and compares them with these
-files, so a change that alters boards cannot land unnoticed.
+One file per config, `pcbdata/resources/releases/<config>.json.gz` (gzip without timestamp, so
+the bytes depend only on the content): the manifest of the released build restricted to that
+config, with every board's sha256. A test rebuilds the small splits (validation, test) and
+compares them with these files, so a change that alters boards cannot land unnoticed.
 
 `check_release(manifest)` compares a set's own manifest with these pinned releases
 (`pcbdata verify DIR --release`, `pcbdata.load(..., release=True)`): a set whose manifest was
@@ -33,7 +33,8 @@ _SPLIT_VOLATILE = {"kicad_checked"}
 
 
 def release_bytes(manifest: dict, config: str) -> bytes:
-    entry = {k: manifest[k] for k in ("format", "package_version", "kicad_version") if k in manifest}
+    entry = {k: manifest[k] for k in ("format", "package_version", "kicad_version")
+             if k in manifest}
     entry["configs"] = {config: manifest["configs"][config]}
     text = json.dumps(entry, indent=1, sort_keys=True, ensure_ascii=False) + "\n"
     return gzip.compress(text.encode("utf-8"), compresslevel=9, mtime=0)
@@ -150,7 +151,8 @@ def _check_config(check: ReleaseCheck, release: PinnedRelease, entry: dict,
     config, pinned = check.config, release.entry
     for key in sorted((set(pinned) | set(entry)) - _VOLATILE):
         for path, old, new in _differences(key, pinned.get(key), entry.get(key)):
-            check.problems.append(f"{config}: {path} is {_short(new)}, the release has {_short(old)}")
+            check.problems.append(
+                f"{config}: {path} is {_short(new)}, the release has {_short(old)}")
     wanted = splits or sorted(entry.get("splits", {}))
     check.absent = [s for s in sorted(pinned["splits"]) if s not in wanted]
     for split in wanted:
@@ -192,7 +194,8 @@ def _check_split(where: str, pinned: dict, split: dict) -> list[str]:
 def changed_fields(old: dict, new: dict) -> list[str]:
     """What differs between two board entries: file names first, then facts."""
     files_old, files_new = old.get("files", {}), new.get("files", {})
-    files = [n for n in sorted(set(files_old) | set(files_new)) if files_old.get(n) != files_new.get(n)]
+    files = [n for n in sorted(set(files_old) | set(files_new))
+             if files_old.get(n) != files_new.get(n)]
     facts = [k for k in sorted((set(old) | set(new)) - {"files"}) if old.get(k) != new.get(k)]
     return files + facts
 
@@ -214,7 +217,8 @@ def _short(value, limit: int = 80) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def compare(release: dict, rebuilt: dict, config: str, splits: list[str] | None = None) -> list[str]:
+def compare(release: dict, rebuilt: dict, config: str,
+            splits: list[str] | None = None) -> list[str]:
     """Differences between a released config and a rebuild of some of its splits."""
     problems = []
     old = release["configs"][config]
@@ -227,11 +231,13 @@ def compare(release: dict, rebuilt: dict, config: str, splits: list[str] | None 
     for split in splits or sorted(new.get("splits", {})):
         a, b = old["splits"].get(split), new["splits"].get(split)
         if a is None or b is None:
-            problems.append(f"{config}/{split}: split missing from the {'release' if a is None else 'rebuild'}")
+            side = "release" if a is None else "rebuild"
+            problems.append(f"{config}/{split}: split missing from the {side}")
             continue
         for key in sorted((set(a) | set(b)) - _SPLIT_VOLATILE - {"boards"}):
             if a.get(key) != b.get(key):
-                problems.append(f"{config}/{split}: {key} changed: {a.get(key)!r} -> {b.get(key)!r}")
+                problems.append(
+                    f"{config}/{split}: {key} changed: {a.get(key)!r} -> {b.get(key)!r}")
         boards_a, boards_b = a.get("boards", {}), b.get("boards", {})
         for board_id in sorted(set(boards_a) | set(boards_b)):
             if board_id not in boards_b:
@@ -247,7 +253,9 @@ def compare(release: dict, rebuilt: dict, config: str, splits: list[str] | None 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m pcbdata.publish.manifests")
     verbs = parser.add_subparsers(dest="verb", required=True)
-    ex = verbs.add_parser("export", help="write pcbdata/resources/releases/<config>.json.gz from a released build")
+    ex = verbs.add_parser(
+        "export",
+        help="write pcbdata/resources/releases/<config>.json.gz from a released build")
     ex.add_argument("root")
     ex.add_argument("--configs", default=None)
     ex.add_argument("--out", default="pcbdata/resources/releases")
@@ -257,7 +265,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         if args.verb == "export":
-            for path in export(args.root, args.out, args.configs.split(",") if args.configs else None):
+            configs = args.configs.split(",") if args.configs else None
+            for path in export(args.root, args.out, configs):
                 print(path)
             return 0
         rebuilt = read_manifest(args.root)

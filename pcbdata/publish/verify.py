@@ -92,7 +92,8 @@ def _verify_split(root: Path, config: str, split: str, boards: dict, shards: lis
         try:
             table = pq.read_table(path, columns=_READ_COLUMNS)
         except Exception as exc:  # noqa: BLE001 - any reader failure means a damaged shard
-            problems.append(f"{rel}: corrupt shard ({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})")
+            first_line = str(exc).splitlines()[0] if str(exc) else ""
+            problems.append(f"{rel}: corrupt shard ({type(exc).__name__}: {first_line})")
             damaged = True
             continue
         for row in table.to_pylist():
@@ -141,7 +142,8 @@ def _check_row(where: str, board_id: str, row: dict, entry: dict,
             continue
         text, digest = present[name]
         if digest != files[name]:
-            problems.append(f"{where}/{board_id}: {name} altered (row sha256 differs from {against})")
+            problems.append(
+                f"{where}/{board_id}: {name} altered (row sha256 differs from {against})")
         elif recipe:
             if text is not None:
                 problems.append(f"{where}/{board_id}: recipe row (not redistributable) carries "

@@ -85,7 +85,8 @@ def test_no_rollout_uses_the_grid_engine():
 
 def _one_board_set(tmp_path, level: str, board_id: str, count: int):
     built = tmp_path / f"built-{level}"
-    args = ["build", "d2", "--splits", "test", "--count", str(count), "--no-check", "--out", str(built)]
+    args = ["build", "d2", "--splits", "test", "--count", str(count), "--no-check",
+            "--out", str(built)]
     if level != "default":
         args += ["--level", level]
     assert main(args) == 0

@@ -23,8 +23,10 @@ def test_every_net_gets_the_instance_default_class(tmp_path):
     text = (tmp_path / "b0" / "board.kicad_pcb").read_text()
     classes = kicad_tools.net_class_map(text, rules)
     assert sorted(k for k in classes if not k.startswith("_")) == ["GND", "VCC_5V"]
-    assert {c["trace_width"] for k, c in classes.items() if not k.startswith("_")} == {rules["track_width"]}
-    argv = kicad_tools.command("in", "out", rules, "map.json", 3, 60) if kicad_tools.executable() else []
+    widths = {c["trace_width"] for k, c in classes.items() if not k.startswith("_")}
+    assert widths == {rules["track_width"]}
+    argv = (kicad_tools.command("in", "out", rules, "map.json", 3, 60)
+            if kicad_tools.executable() else [])
     if argv:
         assert argv[argv.index("--layers") + 1] == "2" and "--no-auto-layers" in argv
 
@@ -40,7 +42,8 @@ def test_route_with_kicad_tools_then_score(tmp_path):
                  str(runs), "--workers", "1", "--timeout", "240"]) == 0
     meta = json.loads((runs / "b0" / "0.json").read_text())
     assert meta["status"] == "routed", meta["reason"]
-    assert meta["router"] == "kicad-tools --seed 0" and meta["router_version"] == kicad_tools.version()
+    assert meta["router"] == "kicad-tools --seed 0"
+    assert meta["router_version"] == kicad_tools.version()
     assert meta["router_cpu_s"] is not None and meta["time_s"] > 0
     assert sorted(p.name for p in (runs / "b0").iterdir()) == ["0.json", "0.kicad_pcb"]
     assert main(["eval", str(root), "--config", "d2", "--runs", str(runs), "--out",

@@ -56,7 +56,8 @@ def test_board_rows_and_summary_carry_both_counts():
     table = markdown_table([("m", s)]).splitlines()
     assert table[0] == ("| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | "
                         "CP+ (%) | DRV+ | Parse-fail (%) | Parse-fail @1 (%) | Invalid (%) |")
-    assert table[2].startswith("| m | 66.7 | 1.00 | 0.667 | 0.00 | 10.0 | 0.00 | 1.00 | 33.3 | 1.00 |")
+    assert table[2].startswith("| m | 66.7 | 1.00 | 0.667 | 0.00 | 10.0 | 0.00 | 1.00 | "
+                               "33.3 | 1.00 |")
 
 
 def test_reports_have_the_strict_columns(tmp_path):

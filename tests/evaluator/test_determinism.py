@@ -52,7 +52,8 @@ def test_the_penalty_is_exact_whatever_the_order():
 
 def test_board_state_is_identical_for_shuffled_violations():
     violations = many_nets() + [
-        {"type": "unconnected_items", "severity": "error", "section": "unconnected", "nets": ["N3"]},
+        {"type": "unconnected_items", "severity": "error", "section": "unconnected",
+         "nets": ["N3"]},
         {"type": "track_dangling", "severity": "warning", "section": "violations", "nets": ["N4"]}]
     board = {"violations": violations, "wl_mm": 123.456, "vias": 7, "net_count": 41}
     rng = random.Random(3)

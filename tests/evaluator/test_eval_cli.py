@@ -81,7 +81,8 @@ def test_eval_reports(board_set, runs, tmp_path, capsys):
     assert by[("b1", "1")]["status"] == "parse_fail" and by[("b1", "1")]["reason"]
     assert by[("b1", "2")]["reason"] == "missing file" and by[("b1", "2")]["time"] == "5.0"
     assert ("b1", "3") not in by  # beyond k = 3
-    assert by[("b2", "1")]["status"] == "invalid" and "footprints changed" in by[("b2", "1")]["reason"]
+    b2_rollout = by[("b2", "1")]
+    assert b2_rollout["status"] == "invalid" and "footprints changed" in b2_rollout["reason"]
     assert by[("b3", "missing")]["reason"] == "missing file"
     assert summary["cp"] == pytest.approx(0.5) and summary["cp_strict"] == pytest.approx(0.25)
     assert summary["rout"] == pytest.approx(0.5)  # b0 1, b2 1, b1 and b3 count 0
@@ -91,7 +92,8 @@ def test_eval_reports(board_set, runs, tmp_path, capsys):
     assert summary["time"] == pytest.approx((1 + 2 + 3 + 5) / 4)  # every rollout's time
     assert summary["drv"] == 0.0 and summary["drv_strict"] == pytest.approx(0.5)
     md = (out / "summary.md").read_text()
-    assert "| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | CP+ (%) | DRV+ |" in md
+    assert ("| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | "
+            "CP+ (%) | DRV+ |") in md
 
     # resumable: a second run scores nothing again and gives the same reports
     before = (out / "scores.jsonl").read_text()

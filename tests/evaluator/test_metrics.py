@@ -31,7 +31,8 @@ def test_counted_buckets():
     for counting in ("evaluation", "strict"):
         assert is_counted(v("clearance"), counting)
         assert is_counted(v("unconnected_items", section="unconnected"), counting)
-        assert is_counted(v("unconnected_items", severity="warning", section="unconnected"), counting)
+        assert is_counted(v("unconnected_items", severity="warning", section="unconnected"),
+                          counting)
         assert not is_counted(v("silk_overlap", severity="warning"), counting)
         assert not is_counted(v("clearance", severity="ignore"), counting)
         assert not is_counted(v("clearance", severity="excluded"), counting)
@@ -43,7 +44,8 @@ def test_counted_buckets():
         assert not is_counted(v(kind, severity="warning"), "evaluation")
         assert not is_counted(v(kind, severity="warning"))  # the evaluation count by default
         assert is_counted(v(kind, severity="error"))  # a project may make them errors
-    mixed = [v("clearance"), v("silk_overlap", severity="warning"), v("via_dangling", severity="warning")]
+    mixed = [v("clearance"), v("silk_overlap", severity="warning"),
+             v("via_dangling", severity="warning")]
     assert [x["type"] for x in counted_violations(mixed)] == ["clearance"]
     assert [x["type"] for x in counted_violations(mixed, "strict")] == ["clearance", "via_dangling"]
     with pytest.raises(ValueError, match="counting"):
@@ -61,10 +63,12 @@ def test_penalty_counts_two_net_violations_for_both_nets_and_no_net_once():
     counted = [v("shorting_items", nets=("A", "B")), v("clearance", nets=("A",)),
                v("copper_edge_clearance", nets=()), v("items_not_allowed", nets=())]
     assert violations_per_net(counted) == {"A": 2, "B": 1, NO_NET: 2}
-    expected = 3 * math.log(1 + 3 / 2) + math.log(1 + 2 / 2) + math.log(1 + 1 / 2) + math.log(1 + 2 / 2)
+    expected = (3 * math.log(1 + 3 / 2) + math.log(1 + 2 / 2) + math.log(1 + 1 / 2)
+                + math.log(1 + 2 / 2))
     assert drc_penalty(counted) == pytest.approx(expected)
     assert drc_penalty([]) == 0.0
-    assert drc_penalty(counted, Weights(net_weight=0.0)) == pytest.approx(expected - 3 * math.log(2.5))
+    assert drc_penalty(counted, Weights(net_weight=0.0)) == pytest.approx(
+        expected - 3 * math.log(2.5))
 
 
 def test_routability():
@@ -103,7 +107,8 @@ def test_rollout_metrics_clean_and_gain():
     m = rollout_metrics(bare, measurement([v("track_dangling", severity="warning")],
                                           {"A": 1, "B": 1}))
     assert (m["cp"], m["drv"], m["drv_by_type"]) == (1, 0, {})
-    assert (m["cp_strict"], m["drv_strict"], m["drv_strict_by_type"]) == (0, 1, {"track_dangling": 1})
+    assert (m["cp_strict"], m["drv_strict"], m["drv_strict_by_type"]) == (
+        0, 1, {"track_dangling": 1})
     f = 3 * math.log(1.5) + math.log(1.5)
     assert m["penalty_strict"] == pytest.approx(f) and m["penalty"] == 0.0
     assert m["pot"] - m["pot_strict"] == pytest.approx(f)

@@ -36,7 +36,8 @@ DSN = """(pcb x
 
 
 def test_fix_ses_resolution_only_when_coordinates_are_in_dsn_units():
-    ses = b"(session x (placement (resolution um 10) (component Pad (place P1 10000 -10000 front 0))))"
+    ses = (b"(session x (placement (resolution um 10) "
+           b"(component Pad (place P1 10000 -10000 front 0))))")
     assert b"(resolution um 1)" in fix_ses_resolution(DSN.encode(), ses)
     scaled = ses.replace(b"10000 -10000", b"100000 -100000")  # a correct SES: left alone
     assert fix_ses_resolution(DSN.encode(), scaled) == scaled
@@ -45,7 +46,8 @@ def test_fix_ses_resolution_only_when_coordinates_are_in_dsn_units():
 def test_ses_placement_is_dropped_before_import():
     ses = ('(session x (base_design y)\n  (placement (resolution um 10)\n    (component "A (1)"\n'
            '      (place P1 1 2 front 0)))\n  (routes (network_out (net A))))')
-    assert strip_ses_placement(ses) == "(session x (base_design y)\n  \n  (routes (network_out (net A))))"
+    assert strip_ses_placement(ses) == ("(session x (base_design y)\n  \n"
+                                        "  (routes (network_out (net A))))")
     assert strip_ses_placement("(session x (routes))") == "(session x (routes))"
 
 

@@ -75,7 +75,8 @@ def test_dangling_track(evaluator, instance, tmp_path):
     stub = track(30, 10, 30, 20, "A")
     r = score(evaluator, instance, tmp_path, routed(base_board(), [ROUTE_A, ROUTE_B, stub]))
     assert (r["cp"], r["rout"], r["drv"], r["drv_by_type"]) == (1, 1.0, 0, {})
-    assert (r["cp_strict"], r["drv_strict"], r["drv_strict_by_type"]) == (0, 1, {"track_dangling": 1})
+    assert (r["cp_strict"], r["drv_strict"], r["drv_strict_by_type"]) == (
+        0, 1, {"track_dangling": 1})
     assert r["wl"] == pytest.approx(90.0)
     assert r["pot"] == pytest.approx(LN_1_PLUS_N - 0.002 * 90 - PHI_BARE)
     assert r["pot_strict"] == pytest.approx(LN_1_PLUS_N - 3 * math.log(1.5) - math.log(1.5)
@@ -161,7 +162,8 @@ def test_integrity_violations_are_invalid(evaluator, instance, tmp_path, change,
 
 
 def test_changed_board_file_rules_are_invalid(evaluator, instance, tmp_path):
-    text = write_board(routed(base_board(), [ROUTE_A, ROUTE_B]), tmp_path / "a.kicad_pcb").read_text()
+    board = routed(base_board(), [ROUTE_A, ROUTE_B])
+    text = write_board(board, tmp_path / "a.kicad_pcb").read_text()
     path = tmp_path / "mask.kicad_pcb"
     path.write_text(text.replace("(pad_to_mask_clearance 0)", "(pad_to_mask_clearance 0.5)"))
     r = evaluator.score(instance, path)
@@ -188,7 +190,8 @@ def test_non_boards_are_parse_failures(evaluator, instance, tmp_path, content, r
 
 
 def test_truncated_board_is_a_parse_failure(evaluator, instance, tmp_path):
-    text = write_board(routed(base_board(), [ROUTE_A, ROUTE_B]), tmp_path / "full.kicad_pcb").read_text()
+    board = routed(base_board(), [ROUTE_A, ROUTE_B])
+    text = write_board(board, tmp_path / "full.kicad_pcb").read_text()
     path = tmp_path / "cut.kicad_pcb"
     path.write_text(text[: len(text) // 2])
     r = evaluator.score(instance, path)

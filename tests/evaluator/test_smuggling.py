@@ -63,7 +63,8 @@ def both(*edits: Callable[[str], str]) -> Callable[[str], str]:
 
 FIRST_FOOTPRINT = '\t(footprint "Pad"'
 LEGACY_DEFAULT = ('\t(net_class "Default" "smuggled"\n\t\t(clearance 0)\n\t\t(trace_width 0.3)\n'
-                  '\t\t(via_dia 1.2)\n\t\t(via_drill 0.6)\n\t\t(uvia_dia 0.3)\n\t\t(uvia_drill 0.1)\n\t)\n')
+                  '\t\t(via_dia 1.2)\n\t\t(via_drill 0.6)\n\t\t(uvia_dia 0.3)\n'
+                  '\t\t(uvia_drill 0.1)\n\t)\n')
 LEGACY_NAMED = ('\t(net_class "Relaxed" "smuggled"\n\t\t(clearance 0.01)\n\t\t(trace_width 0.1)\n'
                 '\t\t(via_dia 1.2)\n\t\t(via_drill 0.6)\n\t\t(uvia_dia 0.3)\n\t\t(uvia_drill 0.1)\n'
                 '\t\t(add_net "NET2")\n\t\t(add_net "NET3")\n\t\t(add_net "NET4")\n\t)\n')
@@ -98,10 +99,12 @@ SMUGGLES = [
     Smuggle("pad clearance", pads("(clearance 0.001)"),
             "pads changed (15 changed, e.g. 'P1:1': with (clearance 0.001))", hides="clearance"),
     Smuggle("footprint clearance", footprints("(clearance 0.001)"),
-            "footprints changed (15 changed, e.g. 'P1': with (clearance 0.001))", hides="clearance"),
+            "footprints changed (15 changed, e.g. 'P1': with (clearance 0.001))",
+            hides="clearance"),
     Smuggle("pad solder mask margin", pads("(solder_mask_margin 0.2)"),
             "with (solder_mask_margin 0.2)"),
-    Smuggle("pad paste margin", pads("(solder_paste_margin -0.1)"), "with (solder_paste_margin -0.1)"),
+    Smuggle("pad paste margin", pads("(solder_paste_margin -0.1)"),
+            "with (solder_paste_margin -0.1)"),
     Smuggle("pad paste ratio", pads("(solder_paste_margin_ratio -0.5)"),
             "with (solder_paste_margin_ratio -0.5)"),
     Smuggle("pad zone connection", pads("(zone_connect 0)"), "with (zone_connect 0)"),
@@ -165,7 +168,8 @@ SMUGGLES = [
     Smuggle("track on a net the instance lacks",
             both(each('\n\t(net 6 "NET6")\n', '\n\t(net 6 "NET6")\n\t(net 7 "SMUGGLED")\n'),
                  before(FIRST_FOOTPRINT, '\t(segment\n\t\t(start 5 5)\n\t\t(end 6 5)\n'
-                                         '\t\t(width 0.3)\n\t\t(layer "F.Cu")\n\t\t(net 7)\n\t)\n')),
+                                         '\t\t(width 0.3)\n\t\t(layer "F.Cu")\n'
+                                         '\t\t(net 7)\n\t)\n')),
             "track at (5, 5) mm is on net 'SMUGGLED', which the instance lacks; nets changed "
             "(1 added, e.g. 'SMUGGLED')", same_copper=False),
     # not rules, but not copper either
@@ -174,7 +178,8 @@ SMUGGLES = [
                                       '(thickness 0.15)))\n\t)\n'),
             "drawings changed (1 added, e.g. 'gr_text on F.SilkS')"),
     Smuggle("outline", before(FIRST_FOOTPRINT, '\t(gr_line\n\t\t(start 0 0)\n\t\t(end 5 5)\n'
-                              '\t\t(stroke (width 0.05) (type default))\n\t\t(layer "Edge.Cuts")\n\t)\n'),
+                              '\t\t(stroke (width 0.05) (type default))\n'
+                              '\t\t(layer "Edge.Cuts")\n\t)\n'),
             "board outline changed (1 added, e.g. 'gr_line on Edge.Cuts')"),
 ]
 

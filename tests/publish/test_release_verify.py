@@ -142,7 +142,8 @@ def test_a_config_without_a_pinned_release_is_an_error(tmp_path, capsys):
     code, out = _verify(root, capsys, "--release")
     assert code == 1
     assert ("d2-medium: no pinned release of this config in pcbdata (pinned: d2, d1-g10, d1-g50, "
-            "d1-g100, d1-g200, d1-g500, d3-a, d3-b, d3-c); it cannot be checked with --release") in out
+            "d1-g100, d1-g200, d1-g500, d3-a, d3-b, d3-c); "
+            "it cannot be checked with --release") in out
     with pytest.raises(UserError, match="d2-medium: no pinned release"):
         pcbdata.load("d2-medium", split="test", root=root, release=True)
 
@@ -162,7 +163,8 @@ def test_the_d3_releases_compare_board_by_board():
     manifest["configs"]["d3-b"]["recipe"]["sha256"] = "1" * 64
     [check] = check_release(manifest)
     assert check.problems == [
-        f"d3-b: recipe.sha256 is '{'1' * 64}', the release has '{release.entry['recipe']['sha256']}'",
+        f"d3-b: recipe.sha256 is '{'1' * 64}', "
+        f"the release has '{release.entry['recipe']['sha256']}'",
         f"d3-b/full/{board_id}: differs from the pinned release (reference.kicad_pcb, licence)",
     ]
 

@@ -31,7 +31,8 @@ def _touch(path: Path, text: str = "x") -> None:
 
 def test_a_split_folder_the_manifest_does_not_list_is_reported(published_copy, capsys):
     _drop_from_manifest(published_copy, "d2", "train")
-    assert verify_set(published_copy) == ["d2/train: split folder not in the manifest (4 entries unlisted)"]
+    assert verify_set(published_copy) == [
+        "d2/train: split folder not in the manifest (4 entries unlisted)"]
     assert main(["verify", str(published_copy)]) == 1
     assert "d2/train: split folder not in the manifest" in capsys.readouterr().out
 
@@ -39,7 +40,8 @@ def test_a_split_folder_the_manifest_does_not_list_is_reported(published_copy, c
 def test_a_config_folder_the_manifest_does_not_list_is_reported(published_copy):
     _drop_from_manifest(published_copy, "d1-g10")
     # train, validation, test and their three .npz arrays (publishing removed its shards)
-    assert verify_set(published_copy) == ["d1-g10: config folder not in the manifest (6 entries unlisted)"]
+    assert verify_set(published_copy) == [
+        "d1-g10: config folder not in the manifest (6 entries unlisted)"]
 
 
 def test_unknown_top_level_entries_are_reported(published_copy):
@@ -52,7 +54,8 @@ def test_unknown_top_level_entries_are_reported(published_copy):
 
 
 def test_what_builds_publishing_and_downloads_leave_is_not_reported(published_copy):
-    for rel in (".pcbdata/checks.jsonl", ".d3-state/0123abcd.json", ".d3-state/0123abcd/board.kicad_pcb",
+    for rel in (".pcbdata/checks.jsonl", ".d3-state/0123abcd.json",
+                ".d3-state/0123abcd/board.kicad_pcb",
                 ".cache/huggingface/download/README.md.metadata", ".gitattributes",
                 "characteristics.csv", "curation_report.csv", "curation_report.json",
                 "attribution.csv", "attribution.json", "LICENSE-PCBench"):
@@ -73,7 +76,8 @@ def test_extra_files_in_config_split_and_board_folders_are_reported(published_co
         "d2/test/.board_00001.k2j3.tmp: leftover of an interrupted run",
         "d2/test/README.txt: extra entry not in the manifest",
         "d2/notes.txt: extra file not in the manifest",
-        "d2/train-00000-of-00002.parquet: extra file not in the manifest (a shard the card does not list)",
+        "d2/train-00000-of-00002.parquet: extra file not in the manifest "
+        "(a shard the card does not list)",
     ]
 
 
