@@ -1,0 +1,151 @@
+"""Regenerates the README's and docs/evaluator.md's baseline tables end to end (issue 9).
+
+Builds what it needs into WORK (default /work/tables-work; never into the repository):
+the D2 test split (`pcbdata build d2 --splits test`) and D3 from the PCBench snapshot
+(unpacked into WORK, then `pcbdata build d3`); routes with `pcbdata route` (freeroute, 5
+rollouts; kicad-tools @1 on a stated sample); scores with `pcbdata eval` at k=1 and k=5 (and
+`--reference` for D3), and prints the Markdown rows with both counts (CP, DRV: evaluation
+count; CP+, DRV+: strict count). Every step resumes: builds skip what is on disk, `route` skips
+rollouts with a JSON, `eval` reuses its `scores.jsonl`.
+
+`--prefix` also routes @1 with the freeroute round trip as it was before the issue-9 fixes
+(no via planning, no boundary inset; rollout 0's engine options are unchanged), to compare.
+
+    nice -n 5 python bench/readme_tables.py --workers 2 [--only d2,d3-a,d3-b] [--prefix]
+        [--kicad-tools 16]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tarfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+SNAPSHOT = Path("/work/shared/pcbench/pcbench.tar.xz")
+SETS = {"d2": ("D2 test", "d2"), "d3-a": ("D3-A test", "d3"), "d3-b": ("D3-B test", "d3")}
+COLUMNS = ("CP (%)", "Pot.", "Rout.", "DRV", "WL (mm)", "Via", "Time (s)", "CP+ (%)", "DRV+")
+
+
+def pcbdata(*args: str) -> None:
+    env = dict(os.environ, PYTHONPATH=str(REPO))
+    command = [sys.executable, "-m", "pcbdata", *args]
+    print("$ pcbdata " + " ".join(args), file=sys.stderr, flush=True)
+    subprocess.run(command, env=env, check=True)
+
+
+def build(work: Path, family: str, workers: int) -> Path:
+    out = work / family
+    if (out / "manifest.json").is_file():
+        return out
+    if family == "d2":
+        pcbdata("build", "d2", "--splits", "test", "--out", str(out), "--workers", str(workers))
+        return out
+    source = work / "pcbench"
+    if not (source / "PCBs").is_dir():
+        with tarfile.open(SNAPSHOT) as archive:
+            archive.extractall(source, filter="data")
+    pcbdata("build", "d3", "--source", str(source), "--out", str(out), "--workers",
+            str(workers), "--quiet")
+    return out
+
+
+def route(root: Path, config: str, runs: Path, workers: int, rollouts: int,
+          router: str = "freeroute", limit: int | None = None) -> None:
+    args = ["route", str(root), "--config", config, "--split", "test", "--out", str(runs),
+            "--rollouts", str(rollouts), "--workers", str(workers), "--router", router]
+    pcbdata(*args, *(["--limit", str(limit)] if limit else []))
+
+
+def route_prefix(root: Path, config: str, runs: Path, workers: int) -> None:
+    """@1 as before the fixes: the same rollout-0 engine options, without via planning and
+    boundary inset (`plan_for_vias=False`); resolution and back-side fixes kept as they were."""
+    sys.path.insert(0, str(REPO))
+    from pcbdata.baselines import routing, specctra
+
+    def old_plans(router, router_cmd, rollouts, router_timeout):
+        argv, _, label = specctra.router_command("freeroute", None, 0)
+        return [routing.RolloutPlan(specctra.ROUTE, (argv, router_timeout, True, True, False),
+                                    label + " (pre-fix: no via planning, no inset)",
+                                    specctra.freeroute_version())]
+
+    routing.rollout_plans = old_plans
+    routing.route_set(root, config, "test", runs, rollouts=1, workers=workers)
+
+
+def evaluate(root: Path, config: str, report: Path, k: int, runs: Path | None,
+             name: str, limit: int | None = None) -> dict:
+    if not (report / "summary.json").is_file() or _stale(report, runs):
+        args = ["eval", str(root), "--config", config, "--split", "test", "--out", str(report),
+                "--k", str(k), "--name", name, "--workers", "4"]
+        args += ["--runs", str(runs)] if runs else ["--reference"]
+        pcbdata(*args, *(["--limit", str(limit)] if limit else []))
+    return json.loads((report / "summary.json").read_text(encoding="utf-8"))
+
+
+def _stale(report: Path, runs: Path | None) -> bool:
+    if runs is None:
+        return False
+    summary = report / "summary.json"
+    newest = max((p.stat().st_mtime for p in runs.rglob("*.json")), default=0.0)
+    return newest > summary.stat().st_mtime
+
+
+def _pct(value) -> str:
+    return "-" if value is None else f"{100 * value:.1f}" if value <= 1 else f"{value:.1f}"
+
+
+def row(label: str, method: str, s: dict) -> str:
+    time_s = s.get("time")
+    cells = [_pct(s["cp"]), f"{s['pot']:.2f}", f"{s['rout']:.3f}", f"{s['drv']:.2f}",
+             f"{s['wl']:.1f}", f"{s['via']:.2f}", "-" if time_s is None else f"{time_s:.2f}",
+             _pct(s.get("cp_strict")), f"{s.get('drv_strict', float('nan')):.2f}"]
+    return f"| {label} ({s['n_boards']}) | {method} | " + " | ".join(cells) + " |"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__,
+                                     formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--work", default="/work/tables-work")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--only", default="d2,d3-a,d3-b")
+    parser.add_argument("--prefix", action="store_true", help="also route @1 pre-fix")
+    parser.add_argument("--kicad-tools", type=int, default=0, metavar="N",
+                        help="kicad-tools @1 on the first N D2 test boards (0: none)")
+    args = parser.parse_args()
+    work = Path(args.work)
+    rows = [f"| set | method | {' | '.join(COLUMNS)} |",
+            "| --- | --- | " + " | ".join("---:" for _ in COLUMNS) + " |"]
+    for config in args.only.split(","):
+        label, family = SETS[config]
+        root = build(work, family, args.workers)
+        runs = work / "runs" / f"{config}-freeroute"
+        if family == "d3":
+            s = evaluate(root, config, work / "reports" / f"{config}-reference", 1, None,
+                         "Reference")
+            rows.append(row(label, "Reference", s))
+        route(root, config, runs, args.workers, 5)
+        for k in (1, 5):
+            s = evaluate(root, config, work / "reports" / f"{config}-freeroute-k{k}", k, runs,
+                         "freeroute")
+            rows.append(row(label, f"freeroute @{k}", s))
+        if args.prefix and config in ("d2", "d3-a"):
+            old = work / "runs" / f"{config}-freeroute-prefix"
+            route_prefix(root, config, old, args.workers)
+            s = evaluate(root, config, work / "reports" / f"{config}-freeroute-prefix-k1", 1,
+                         old, "freeroute pre-fix")
+            rows.append(row(label, "freeroute pre-fix @1", s))
+        if args.kicad_tools and config == "d2":
+            kt = work / "runs" / "d2-kicad-tools"
+            route(root, config, kt, args.workers, 1, "kicad-tools", args.kicad_tools)
+            s = evaluate(root, config, work / "reports" / "d2-kicad-tools-k1", 1, kt,
+                         "kicad-tools", args.kicad_tools)
+            rows.append(row(f"{label}, first", "kicad-tools @1", s))
+        print("\n".join(rows), flush=True)
+
+
+if __name__ == "__main__":
+    main()
