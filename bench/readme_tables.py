@@ -13,6 +13,7 @@ rollouts with a JSON, `eval` reuses its `scores.jsonl`.
 
     nice -n 5 python bench/readme_tables.py --workers 2 [--only d2,d3-a,d3-b] [--prefix]
         [--kicad-tools 16]
+    nice -n 5 python bench/readme_tables.py --workers 2 --levels 64   # the calibration table
 """
 from __future__ import annotations
 
@@ -106,6 +107,47 @@ def row(label: str, method: str, s: dict) -> str:
     return f"| {label} ({s['n_boards']}) | {method} | " + " | ".join(cells) + " |"
 
 
+LEVELS = ("d2-medium", "d2-hard", "d2-expert")
+LEVEL_COLUMNS = ("CP @1 (%)", "CP @5 (%)", "CP+ @1 (%)", "CP+ @5 (%)", "Rout. @5", "DRV @1",
+                 "DRV @5", "DRV+ @5", "WL @5 (mm)", "Via @5", "router s/board (median)")
+
+
+def median_router_s(runs: Path, limit: int | None = None) -> float:
+    import statistics
+
+    boards = sorted(p for p in runs.iterdir() if p.is_dir())[: limit or None]
+    values = [json.loads(m.read_text()).get("router_s") or 0.0
+              for b in boards for m in b.glob("*.json")]
+    return statistics.median(values) if values else float("nan")
+
+
+def level_row(work: Path, config: str, boards: int, workers: int) -> str:
+    """One calibration row: the first `boards` test boards of a level, 5 rollouts."""
+    if config == "d2":
+        root, runs = work / "d2", work / "runs" / "d2-freeroute"
+    else:
+        root, runs = work / "levels" / config, work / "runs" / f"{config}-freeroute"
+        if not (root / "manifest.json").is_file():
+            pcbdata("build", "d2", "--level", config.removeprefix("d2-"), "--splits", "test",
+                    "--count", str(boards), "--no-check", "--out", str(root))
+        route(root, config, runs, workers, 5, limit=boards)
+    s1, s5 = (evaluate(root, config, work / "reports" / f"levels-{config}-k{k}", k, runs,
+                       "freeroute", boards) for k in (1, 5))
+    cells = [_pct(s1["cp"]), _pct(s5["cp"]), _pct(s1["cp_strict"]), _pct(s5["cp_strict"]),
+             f"{s5['rout']:.3f}", f"{s1['drv']:.2f}", f"{s5['drv']:.2f}",
+             f"{s5['drv_strict']:.2f}", f"{s5['wl']:.1f}", f"{s5['via']:.2f}",
+             f"{median_router_s(runs, boards):.2f}"]
+    return f"| `{config}` ({s5['n_boards']}) | freeroute | " + " | ".join(cells) + " |"
+
+
+def levels_table(work: Path, boards: int, workers: int) -> None:
+    rows = [f"| level (config) | router | {' | '.join(LEVEL_COLUMNS)} |",
+            "| --- | --- | " + " | ".join("---:" for _ in LEVEL_COLUMNS) + " |"]
+    for config in ("d2", *LEVELS):
+        rows.append(level_row(work, config, boards, workers))
+        print("\n".join(rows), flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -115,8 +157,15 @@ def main() -> None:
     parser.add_argument("--prefix", action="store_true", help="also route @1 pre-fix")
     parser.add_argument("--kicad-tools", type=int, default=0, metavar="N",
                         help="kicad-tools @1 on the first N D2 test boards (0: none)")
+    parser.add_argument("--levels", type=int, default=0, metavar="N",
+                        help="the level calibration table on the first N test boards (0: none)")
     args = parser.parse_args()
     work = Path(args.work)
+    if args.levels:
+        build(work, "d2", args.workers)
+        route(work / "d2", "d2", work / "runs" / "d2-freeroute", args.workers, 5)
+        levels_table(work, args.levels, args.workers)
+        return
     rows = [f"| set | method | {' | '.join(COLUMNS)} |",
             "| --- | --- | " + " | ".join("---:" for _ in COLUMNS) + " |"]
     for config in args.only.split(","):
@@ -145,6 +194,8 @@ def main() -> None:
                          "kicad-tools", args.kicad_tools)
             rows.append(row(f"{label}, first", "kicad-tools @1", s))
         print("\n".join(rows), flush=True)
+        print(f"median router s/board, {config} freeroute: {median_router_s(runs):.2f}",
+              file=sys.stderr)
 
 
 if __name__ == "__main__":
