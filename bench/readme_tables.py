@@ -107,6 +107,95 @@ def row(label: str, method: str, s: dict) -> str:
     return f"| {label} ({s['n_boards']}) | {method} | " + " | ".join(cells) + " |"
 
 
+# Runs in a separate Python with pcbnew: maps the items of a kicad-cli JSON DRC report to their
+# pads and footprints. argv: board, report; prints one JSON object per counted violation.
+_ITEMS = r"""
+import json, sys, pcbnew
+board = pcbnew.LoadBoard(sys.argv[1])
+pads = {}
+for fp in board.GetFootprints():
+    for pad in fp.Pads():
+        pads[pad.m_Uuid.AsString()] = (fp, pad)
+report = json.load(open(sys.argv[2]))
+for v in report.get("violations", []):
+    if v.get("severity") != "error":
+        continue
+    found = []
+    for item in v.get("items", []):
+        hit = pads.get(item.get("uuid"))
+        if hit is None:
+            found.append({"item": item.get("description", "").split(" ")[0]})
+            continue
+        fp, pad = hit
+        found.append({"item": "pad", "footprint": str(fp.GetFPID().GetUniStringLibItemName()),
+                      "fp_angle": fp.GetOrientationDegrees(), "pad_angle": pad.GetOrientationDegrees(),
+                      "shape": pad.ShapeType(), "oval": pad.GetShape() == pcbnew.PAD_SHAPE_OVAL,
+                      "pth": pad.GetAttribute() == pcbnew.PAD_ATTRIB_PTH})
+    print(json.dumps({"type": v.get("type"), "items": found}))
+"""
+
+
+def explain(work: Path, config: str) -> None:
+    """Why freeroute @1 boards of `config` fail: counted violation types, and how many involve a
+    pad, an oval PTH pad, and an oval PTH pad of a footprint rotated off the 0/180 axis."""
+    import collections
+    import csv
+    import shutil
+    import tempfile
+
+    root = build(work, "d3" if config.startswith("d3") else "d2", 2)
+    dirs = dict(__import__("pcbdata.evaluator.runs", fromlist=["x"]).list_instances(
+        root, config, "test"))
+    report = work / "reports" / f"{config}-freeroute-k1" / "per_rollout.csv"
+    types: collections.Counter = collections.Counter()
+    kinds: collections.Counter = collections.Counter()
+    footprints: collections.Counter = collections.Counter()
+    boards_with: collections.Counter = collections.Counter()
+    rows = [r for r in csv.DictReader(report.open()) if r["status"] == "ok"]
+    for r in rows:
+        if int(float(r["drv"])) - int(float(r["unconnected"])) <= 0:
+            continue
+        with tempfile.TemporaryDirectory() as tmp:
+            board = Path(tmp) / "board.kicad_pcb"
+            shutil.copy(work / "runs" / f"{config}-freeroute" / r["board_id"] / "0.kicad_pcb",
+                        board)
+            for ext in ("kicad_pro", "kicad_dru"):
+                if (dirs[r["board_id"]] / f"board.{ext}").is_file():
+                    shutil.copy(dirs[r["board_id"]] / f"board.{ext}", Path(tmp) / f"board.{ext}")
+            subprocess.run(["kicad-cli", "pcb", "drc", "--format", "json", "--all-track-errors",
+                            "--severity-error", "-o", f"{tmp}/drc.json", str(board)],
+                           capture_output=True, check=False)
+            out = subprocess.run([sys.executable, "-c", _ITEMS, str(board), f"{tmp}/drc.json"],
+                                 capture_output=True, text=True, check=False).stdout
+        seen = set()
+        for line in out.splitlines():
+            v = json.loads(line)
+            types[v["type"]] += 1
+            padded = [i for i in v["items"] if i["item"] == "pad"]
+            oval = [i for i in padded if i["oval"] and i["pth"]]
+            turned = [i for i in oval if round(i["pad_angle"]) % 180 != 0]
+            kind = ("oval PTH pad, turned 90/270 or off-axis" if turned else "oval PTH pad"
+                    if oval else "other pad" if padded else "no pad (track/via/hole only)")
+            kinds[kind] += 1
+            for i in padded:
+                shape = "oval PTH" if i["oval"] and i["pth"] else f"shape {i['shape']}"
+                footprints[f"{i['footprint']} ({shape}, {i['pad_angle']:g} deg)"] += 1
+            seen.add(v["type"])
+        for t in seen:
+            boards_with[t] += 1
+    failing = sum(1 for r in rows if int(float(r["cp"])) == 0)
+    print(f"{config} freeroute @1: {failing} of {len(rows)} boards not CP")
+    print("| violation type | count | boards |\n| --- | ---: | ---: |")
+    for t, n in types.most_common():
+        print(f"| `{t}` | {n} | {boards_with[t]} |")
+    print("\n| pads involved | violations |\n| --- | ---: |")
+    for k, n in kinds.most_common():
+        print(f"| {k} | {n} |")
+    print("\nfootprints (pad shape, pad angle on the board) in the most violations:")
+    for f, n in footprints.most_common(12):
+        print(f"  {n:4d}  {f}")
+
+
 LEVELS = ("d2-medium", "d2-hard", "d2-expert")
 LEVEL_COLUMNS = ("CP @1 (%)", "CP @5 (%)", "CP+ @1 (%)", "CP+ @5 (%)", "Rout. @5", "DRV @1",
                  "DRV @5", "DRV+ @5", "WL @5 (mm)", "Via @5", "router s/board (median)")
@@ -159,8 +248,14 @@ def main() -> None:
                         help="kicad-tools @1 on the first N D2 test boards (0: none)")
     parser.add_argument("--levels", type=int, default=0, metavar="N",
                         help="the level calibration table on the first N test boards (0: none)")
+    parser.add_argument("--explain", metavar="CONFIG",
+                        help="only: counted violations of freeroute @1 by type and pad kind")
     args = parser.parse_args()
     work = Path(args.work)
+    if args.explain:
+        sys.path.insert(0, str(REPO))
+        explain(work, args.explain)
+        return
     if args.levels:
         build(work, "d2", args.workers)
         route(work / "d2", "d2", work / "runs" / "d2-freeroute", args.workers, 5)
