@@ -112,6 +112,8 @@ def row(label: str, method: str, s: dict) -> str:
 _ITEMS = r"""
 import json, sys, pcbnew
 board = pcbnew.LoadBoard(sys.argv[1])
+SHAPES = {0: "circle", 1: "rect", 2: "oval", 3: "trapezoid", 4: "roundrect", 5: "chamfered",
+          6: "custom"}
 pads = {}
 for fp in board.GetFootprints():
     for pad in fp.Pads():
@@ -127,9 +129,11 @@ for v in report.get("violations", []):
             found.append({"item": item.get("description", "").split(" ")[0]})
             continue
         fp, pad = hit
+        shape = pad.GetShape(pcbnew.F_Cu)
         found.append({"item": "pad", "footprint": str(fp.GetFPID().GetUniStringLibItemName()),
-                      "fp_angle": fp.GetOrientationDegrees(), "pad_angle": pad.GetOrientationDegrees(),
-                      "shape": pad.ShapeType(), "oval": pad.GetShape() == pcbnew.PAD_SHAPE_OVAL,
+                      "fp_angle": fp.GetOrientationDegrees(),
+                      "pad_angle": pad.GetOrientationDegrees(),
+                      "shape": SHAPES.get(shape, str(shape)), "oval": shape == pcbnew.PAD_SHAPE_OVAL,
                       "pth": pad.GetAttribute() == pcbnew.PAD_ATTRIB_PTH})
     print(json.dumps({"type": v.get("type"), "items": found}))
 """
@@ -178,7 +182,7 @@ def explain(work: Path, config: str) -> None:
                     if oval else "other pad" if padded else "no pad (track/via/hole only)")
             kinds[kind] += 1
             for i in padded:
-                shape = "oval PTH" if i["oval"] and i["pth"] else f"shape {i['shape']}"
+                shape = "oval PTH" if i["oval"] and i["pth"] else i["shape"]
                 footprints[f"{i['footprint']} ({shape}, {i['pad_angle']:g} deg)"] += 1
             seen.add(v["type"])
         for t in seen:
