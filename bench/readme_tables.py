@@ -133,7 +133,8 @@ for v in report.get("violations", []):
         found.append({"item": "pad", "footprint": str(fp.GetFPID().GetUniStringLibItemName()),
                       "fp_angle": fp.GetOrientationDegrees(),
                       "pad_angle": pad.GetOrientationDegrees(),
-                      "shape": SHAPES.get(shape, str(shape)), "oval": shape == pcbnew.PAD_SHAPE_OVAL,
+                      "shape": SHAPES.get(shape, str(shape)),
+                      "oval": shape == pcbnew.PAD_SHAPE_OVAL,
                       "pth": pad.GetAttribute() == pcbnew.PAD_ATTRIB_PTH})
     print(json.dumps({"type": v.get("type"), "items": found}))
 """
