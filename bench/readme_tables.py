@@ -224,8 +224,9 @@ def median_router_s(runs: Path, limit: int | None = None) -> float:
     return statistics.median(values) if values else float("nan")
 
 
-def level_row(work: Path, config: str, boards: int, workers: int) -> str:
-    """One calibration row: the first `boards` test boards of a level, 5 rollouts."""
+def level_row(work: Path, config: str, boards: int, workers: int, rollouts: int = 5) -> str:
+    """One calibration row: the first `boards` test boards of a level (@5 cells "-" when only
+    one rollout is routed)."""
     if config == "d2":
         root, runs = work / "d2", work / "runs" / "d2-freeroute"
     else:
@@ -233,21 +234,24 @@ def level_row(work: Path, config: str, boards: int, workers: int) -> str:
         if not (root / "manifest.json").is_file():
             pcbdata("build", "d2", "--level", config.removeprefix("d2-"), "--splits", "test",
                     "--count", str(boards), "--no-check", "--out", str(root))
-        route(root, config, runs, workers, 5, limit=boards)
-    s1, s5 = (evaluate(root, config, work / "reports" / f"levels-{config}-k{k}", k, runs,
-                       "freeroute", boards) for k in (1, 5))
-    cells = [_pct(s1["cp"]), _pct(s5["cp"]), _pct(s1["cp_strict"]), _pct(s5["cp_strict"]),
-             f"{s5['rout']:.3f}", f"{s1['drv']:.2f}", f"{s5['drv']:.2f}",
-             f"{s5['drv_strict']:.2f}", f"{s5['wl']:.1f}", f"{s5['via']:.2f}",
-             f"{median_router_s(runs, boards):.2f}"]
+        route(root, config, runs, workers, rollouts, limit=boards)
+    s1 = evaluate(root, config, work / "reports" / f"levels-{config}-k1", 1, runs, "freeroute",
+                  boards)
+    s5 = (evaluate(root, config, work / "reports" / f"levels-{config}-k5", 5, runs,
+                   "freeroute", boards) if rollouts == 5 else None)
+    at5 = s5 or s1  # Rout., DRV+, WL, Via of @1 when only one rollout was routed
+    cells = [_pct(s1["cp"]), _pct(s5["cp"]) if s5 else "-", _pct(s1["cp_strict"]),
+             _pct(s5["cp_strict"]) if s5 else "-", f"{at5['rout']:.3f}", f"{s1['drv']:.2f}",
+             f"{s5['drv']:.2f}" if s5 else "-", f"{at5['drv_strict']:.2f}",
+             f"{at5['wl']:.1f}", f"{at5['via']:.2f}", f"{median_router_s(runs, boards):.2f}"]
     return f"| `{config}` ({s5['n_boards']}) | freeroute | " + " | ".join(cells) + " |"
 
 
-def levels_table(work: Path, boards: int, workers: int) -> None:
+def levels_table(work: Path, boards: int, workers: int, rollouts: int) -> None:
     rows = [f"| level (config) | router | {' | '.join(LEVEL_COLUMNS)} |",
             "| --- | --- | " + " | ".join("---:" for _ in LEVEL_COLUMNS) + " |"]
     for config in ("d2", *LEVELS):
-        rows.append(level_row(work, config, boards, workers))
+        rows.append(level_row(work, config, boards, workers, 5 if config == "d2" else rollouts))
         print("\n".join(rows), flush=True)
 
 
@@ -262,6 +266,8 @@ def main() -> None:
                         help="kicad-tools @1 on the first N D2 test boards (0: none)")
     parser.add_argument("--levels", type=int, default=0, metavar="N",
                         help="the level calibration table on the first N test boards (0: none)")
+    parser.add_argument("--level-rollouts", type=int, choices=(1, 5), default=5,
+                        help="rollouts for the harder levels (1: @1 columns only)")
     parser.add_argument("--explain", metavar="CONFIG",
                         help="only: counted violations of freeroute @1 by type and pad kind")
     args = parser.parse_args()
@@ -273,7 +279,7 @@ def main() -> None:
     if args.levels:
         build(work, "d2", args.workers)
         route(work / "d2", "d2", work / "runs" / "d2-freeroute", args.workers, 5)
-        levels_table(work, args.levels, args.workers)
+        levels_table(work, args.levels, args.workers, args.level_rollouts)
         return
     rows = [f"| set | method | {' | '.join(COLUMNS)} |",
             "| --- | --- | " + " | ".join("---:" for _ in COLUMNS) + " |"]
