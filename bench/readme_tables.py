@@ -244,7 +244,7 @@ def level_row(work: Path, config: str, boards: int, workers: int, rollouts: int 
              _pct(s5["cp_strict"]) if s5 else "-", f"{at5['rout']:.3f}", f"{s1['drv']:.2f}",
              f"{s5['drv']:.2f}" if s5 else "-", f"{at5['drv_strict']:.2f}",
              f"{at5['wl']:.1f}", f"{at5['via']:.2f}", f"{median_router_s(runs, boards):.2f}"]
-    return f"| `{config}` ({s5['n_boards']}) | freeroute | " + " | ".join(cells) + " |"
+    return f"| `{config}` ({at5['n_boards']}) | freeroute | " + " | ".join(cells) + " |"
 
 
 def levels_table(work: Path, boards: int, workers: int, rollouts: int) -> None:
