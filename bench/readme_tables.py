@@ -14,6 +14,11 @@ rollouts with a JSON, `eval` reuses its `scores.jsonl`.
     nice -n 5 python bench/readme_tables.py --workers 2 [--only d2,d3-a,d3-b] [--prefix]
         [--kicad-tools 16]
     nice -n 5 python bench/readme_tables.py --workers 2 --levels 64   # the calibration table
+        [--level-rollouts 1]
+    python bench/readme_tables.py --explain d3-a   # freeroute @1 violations by type and pad
+
+Run from the repository root with the venv's Python (KiCad 9.0.8 pcbnew, freeroute,
+kicad-tools); it calls `python -m pcbdata` with PYTHONPATH set to the repository.
 """
 from __future__ import annotations
 
