@@ -316,6 +316,9 @@ def main() -> None:
             s = evaluate(root, config, work / "reports" / "d2-kicad-tools-k1", 1, kt,
                          "kicad-tools", args.kicad_tools)
             rows.append(row(f"{label}, first", "kicad-tools @1", s))
+            same = work / "reports" / f"d2-freeroute-first{args.kicad_tools}-k1"
+            s = evaluate(root, config, same, 1, runs, "freeroute", args.kicad_tools)
+            rows.append(row(f"{label}, first", "freeroute @1 (same boards)", s))
         print("\n".join(rows), flush=True)
         print(f"median router s/board, {config} freeroute: {median_router_s(runs):.2f}",
               file=sys.stderr)
