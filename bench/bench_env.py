@@ -60,14 +60,14 @@ def _episodes(root: Path, drc: str, limit: int, mode: int, preload: str | None,
             "fully_connected": sum(r["terminated"] for r in records),
             "router_calls": len(router),
             "router_median_ms": 1e3 * statistics.median(router) if router else None,
-            "router_p95_ms": (1e3 * sorted(router)[int(0.95 * (len(router) - 1))]
-                              if router else None)}
+            "router_p90_ms": (1e3 * sorted(router)[int(0.9 * (len(router) - 1))]
+                              if router else None),
+            "router_max_ms": 1e3 * max(router) if router else None}
 
 
 def main() -> int:
     from _measure import machine
 
-    from pcbdata.env.routing import walkaround_module
     from pcbdata.env.types import MARK_OBSTACLES, MODES, WALKAROUND
     from pcbdata.evaluator.runs import evaluate_set
 
@@ -78,9 +78,11 @@ def main() -> int:
     parser.add_argument("--k", type=int, default=5,
                         help="rollouts per board for CP @k (the extra ones with terminal DRC: "
                              "the scripted agent does not read the DRC, its boards are the same)")
+    parser.add_argument("--mark-obstacles", action="store_true",
+                        help="the scripted agent in mark_obstacles mode (engine speed only)")
     parser.add_argument("--json", help="write the figures here")
     args = parser.parse_args()
-    mode = WALKAROUND if walkaround_module() is not None else MARK_OBSTACLES
+    mode = MARK_OBSTACLES if args.mark_obstacles else WALKAROUND
     with tempfile.TemporaryDirectory(prefix="bench-env-") as tmp:
         root = Path(args.set) if args.set else Path(tmp) / "set"
         if not args.set:

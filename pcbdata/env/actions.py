@@ -44,6 +44,12 @@ def _index(value, size: int, name: str) -> tuple[int | None, str | None]:
     return int(number), None
 
 
+def _size(space: spaces.Dict, name: str) -> int:
+    sub = space[name]
+    assert isinstance(sub, spaces.Discrete)
+    return int(sub.n)
+
+
 def parse_action(raw, space: spaces.Dict) -> tuple[Action | None, str | None]:
     """(Action, None) or (None, reason)."""
     if not isinstance(raw, Mapping):
@@ -57,9 +63,10 @@ def parse_action(raw, space: spaces.Dict) -> tuple[Action | None, str | None]:
         if name not in raw:
             values[name] = 0  # arguments the action type does not use may be left out
             continue
-        values[name], reason = _index(raw[name], int(space[name].n), name)
-        if reason:
+        value, reason = _index(raw[name], _size(space, name), name)
+        if reason or value is None:
             return None, f"malformed action: {reason}"
+        values[name] = value
     return Action(**values), None
 
 

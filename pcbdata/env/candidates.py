@@ -27,7 +27,7 @@ def ring(static: StaticBoard, head: Head | None, ring_nm: int) -> list[Candidate
     if head is None:
         return [_EMPTY] * RING_SLOTS
     if static.grid_pitch:
-        pitch, origin = static.grid_pitch, static.grid_origin
+        pitch, origin = static.grid_pitch, static.grid_origin or 0
         x, y = _snap(head.x, pitch, origin), _snap(head.y, pitch, origin)
         return [Candidate(x + dx * pitch, y + dy * pitch, head.layer, RING)
                 if dx == 0 or dy == 0 else _EMPTY for dx, dy in DIRECTIONS]

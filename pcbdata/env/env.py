@@ -51,6 +51,8 @@ class RoutingEnv(gym.Env):
     _session: Any
     _head: Head | None
     _net: str | None
+    _router: Any
+    timings: dict[str, Any]
 
     def __init__(self, **options):
         self.options = o = make_options(**options)
@@ -59,7 +61,6 @@ class RoutingEnv(gym.Env):
         self.action_space = action_space(o.max_nets, o.max_candidates)
         self.observation_space = observation.observation_space(o)
         self.render_mode = o.render_mode
-        self.walkaround_ready = routing.walkaround_module() is not None
         self._session: KicadSession | None = None
         self.static = None
         self.timings = {"kicad_s": 0.0, "router_s": []}  # wall times: never in obs or info
@@ -156,7 +157,7 @@ class RoutingEnv(gym.Env):
         margin = s.edge_clearance + (net.track_width // 2 if net else 0)
         line, via = masks.candidate_masks(s, self._cands, self._head, margin)
         nets = masks.net_mask(s, o.max_nets)
-        modes, self._mode_reasons = masks.mode_mask(self.walkaround_ready)
+        modes, self._mode_reasons = masks.mode_mask()
         phase = masks.phase_of(self._net, self._head)
         can_finish = phase == ROUTING and bool(self._finish_targets())
         self._masks = {"type": masks.type_mask(phase, bool(nets.any()), line, via, can_finish),
@@ -170,8 +171,13 @@ class RoutingEnv(gym.Env):
     def _net_rules(self):
         return next((n for n in self.static.nets if n.name == self._net), None)
 
+    def _current_head(self) -> Head:
+        """The head (routing phase only: the masks allow no routing action without one)."""
+        assert self._head is not None, "no head: the phase machine allows this only in routing"
+        return self._head
+
     def _head_cluster(self) -> int | None:
-        h, s, snap = self._head, self.static, self._snap
+        h, s, snap = self._current_head(), self.static, self._snap
         layer = s.layers[h.layer]
         for record in snap["copper"]:
             if record["net"] != self._net:
@@ -188,7 +194,7 @@ class RoutingEnv(gym.Env):
 
     def _finish_targets(self) -> list[tuple[int, int]]:
         """Pad centres of the net on the head's layer not joined to the head's copper."""
-        s, h = self.static, self._head
+        s, h = self.static, self._current_head()
         cluster = self._head_cluster()
         return sorted({(s.pads[i].x, s.pads[i].y) for i in s.pads_of(self._net)
                        if h.layer in s.pads[i].layers and self._snap["pad_cluster"][i] != cluster
@@ -245,13 +251,14 @@ class RoutingEnv(gym.Env):
 
     def _route(self, a) -> tuple[dict, bool]:
         s, net, times = self.static, self._net_rules(), self.timings["router_s"]
+        head = self._current_head()
         goal = (self._cands[a.candidate].x, self._cands[a.candidate].y)
         if a.type == MAKE_LINE:
-            done = routing.make_line(s, self._get_router, net, self._head, goal, a.mode, times)
+            done = routing.make_line(s, self._get_router, net, head, goal, a.mode, times)
         elif a.type == MAKE_VIA:
-            done = routing.make_via(s, self._get_router, net, self._head, goal, a.mode, times)
+            done = routing.make_via(s, self._get_router, net, head, goal, a.mode, times)
         else:
-            done = routing.finish(s, self._get_router, net, self._head, self._finish_targets(),
+            done = routing.finish(s, self._get_router, net, head, self._finish_targets(),
                                   a.mode, self.options.finish_tries, times)
         report = {"ok": done.ok, "mode": MODES[a.mode], "reason": done.reason,
                   "stats": done.stats}

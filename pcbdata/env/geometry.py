@@ -10,6 +10,7 @@ of depending on how finely a buffer approximates round ends. Where an approximat
 avoided (arcs, circles given as polygons) it errs outwards, so a path clear of the model is
 clear of the real copper.
 """
+
 from __future__ import annotations
 
 import math
@@ -32,28 +33,37 @@ ARC_MAX_CHORDS = 64
 class CopperItem:
     """One piece of copper on the board, plain data."""
 
-    kind: str                # "pad" | "track" | "arc" | "via" | "zone"
-    net: str                 # net name; "" = no net
+    kind: str  # "pad" | "track" | "arc" | "via" | "zone"
+    net: str  # net name; "" = no net
     layers: tuple[str, ...]  # copper layers it occupies
-    polygon: tuple[tuple[int, int], ...] = ()   # pads, zones: outline (nm), closed implicitly
-    start: tuple[int, int] | None = None        # tracks/arcs: centreline ends; vias: centre
+    polygon: tuple[tuple[int, int], ...] = ()  # pads, zones: outline (nm), closed implicitly
+    start: tuple[int, int] | None = None  # tracks/arcs: centreline ends; vias: centre
     end: tuple[int, int] | None = None
-    mid: tuple[int, int] | None = None          # arcs only
-    width: int = 0                              # tracks/arcs: width; vias: diameter
-    clearance: int = 0                          # this item's net clearance (nm), from the rules
+    mid: tuple[int, int] | None = None  # arcs only
+    width: int = 0  # tracks/arcs: width; vias: diameter
+    clearance: int = 0  # this item's net clearance (nm), from the rules
 
 
 @dataclass(frozen=True)
 class BoardGeometry:
-    outline: tuple[tuple[tuple[int, int], ...], ...]   # Edge.Cuts rings; first = board
+    outline: tuple[tuple[tuple[int, int], ...], ...]  # Edge.Cuts rings; first = board
     copper: tuple[CopperItem, ...]
     edge_clearance: int
 
 
 def item_sort_key(item: CopperItem) -> tuple:
     """A total order on items, so that results never depend on the order they came in."""
-    return (item.kind, item.net, item.layers, item.polygon, item.start or (), item.end or (),
-            item.mid or (), item.width, item.clearance)
+    return (
+        item.kind,
+        item.net,
+        item.layers,
+        item.polygon,
+        item.start or (),
+        item.end or (),
+        item.mid or (),
+        item.width,
+        item.clearance,
+    )
 
 
 def copper_core(item: CopperItem) -> tuple[shapely.Geometry, float]:
@@ -67,8 +77,9 @@ def copper_core(item: CopperItem) -> tuple[shapely.Geometry, float]:
     if item.kind == "track":
         return _segment(_required(item, "start"), _required(item, "end")), item.width / 2
     if item.kind == "arc":
-        chords, sagitta = arc_polyline(_required(item, "start"), _required(item, "mid"),
-                                       _required(item, "end"))
+        chords, sagitta = arc_polyline(
+            _required(item, "start"), _required(item, "mid"), _required(item, "end")
+        )
         return shapely.LineString(chords), item.width / 2 + sagitta
     raise ValueError(f"unknown copper kind {item.kind!r}")
 
@@ -101,26 +112,41 @@ def arc_polyline(start: Point, mid: Point, end: Point) -> tuple[list[tuple[float
     step_max = 2 * math.acos(max(-1.0, 1 - ARC_MAX_SAGITTA / radius))
     chords = min(ARC_MAX_CHORDS, max(2, math.ceil(abs(sweep) / step_max)))
     step = sweep / chords
-    points = [start] + [(cx + radius * math.cos(a1 + k * step), cy + radius * math.sin(a1 + k * step))
-                        for k in range(1, chords)] + [end]
+    points = (
+        [start]
+        + [
+            (cx + radius * math.cos(a1 + k * step), cy + radius * math.sin(a1 + k * step))
+            for k in range(1, chords)
+        ]
+        + [end]
+    )
     return points, radius * (1 - math.cos(step / 2))
 
 
 def circle_polygon(cx: int, cy: int, radius: float, sides: int = CIRCLE_SIDES) -> tuple[Point, ...]:
     """A polygon around the circle (edges tangent to it), vertices rounded outwards."""
     out_radius = radius / math.cos(math.pi / sides)
-    return tuple(_round_away(cx, cy, cx + out_radius * math.cos(2 * math.pi * (k + 0.5) / sides),
-                             cy + out_radius * math.sin(2 * math.pi * (k + 0.5) / sides))
-                 for k in range(sides))
+    return tuple(
+        _round_away(
+            cx,
+            cy,
+            cx + out_radius * math.cos(2 * math.pi * (k + 0.5) / sides),
+            cy + out_radius * math.sin(2 * math.pi * (k + 0.5) / sides),
+        )
+        for k in range(sides)
+    )
 
 
-def roundrect_polygon(cx: int, cy: int, width: int, height: int, radius: float,
-                      corner_sides: int = CORNER_SIDES) -> tuple[Point, ...]:
+def roundrect_polygon(
+    cx: int, cy: int, width: int, height: int, radius: float, corner_sides: int = CORNER_SIDES
+) -> tuple[Point, ...]:
     """A rounded rectangle as a polygon whose corners circumscribe the true corner arcs."""
     if radius <= 0:
         hx, hy = width / 2, height / 2
-        return tuple(_round_away(cx, cy, cx + sx * hx, cy + sy * hy)
-                     for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1)))
+        return tuple(
+            _round_away(cx, cy, cx + sx * hx, cy + sy * hy)
+            for sx, sy in ((1, 1), (-1, 1), (-1, -1), (1, -1))
+        )
     out_radius = radius / math.cos(math.pi / (4 * corner_sides))
     points = []
     for quadrant, (sx, sy) in enumerate(((1, 1), (-1, 1), (-1, -1), (1, -1))):
@@ -131,7 +157,9 @@ def roundrect_polygon(cx: int, cy: int, width: int, height: int, radius: float,
         for k in range(corner_sides):
             angle = base + (k + 0.5) * (math.pi / 2) / corner_sides
             points.append((ox + out_radius * math.cos(angle), oy + out_radius * math.sin(angle)))
-        points.append((ox + radius * math.cos(base + math.pi / 2), oy + radius * math.sin(base + math.pi / 2)))
+        points.append(
+            (ox + radius * math.cos(base + math.pi / 2), oy + radius * math.sin(base + math.pi / 2))
+        )
     return tuple(dict.fromkeys(_round_away(cx, cy, x, y) for x, y in points))
 
 
@@ -149,18 +177,45 @@ def geometry_from_board(board) -> BoardGeometry:
     """
     clearance = board.rules.clearance
     copper = [_pad_item(pad, clearance) for pad in board.pads]
-    copper += [CopperItem("track", t.net, (t.layer,), start=(t.x1, t.y1), end=(t.x2, t.y2),
-                          width=t.width, clearance=clearance) for t in board.tracks]
-    copper += [CopperItem("arc", a.net, (a.layer,), start=(a.x1, a.y1), mid=(a.xm, a.ym),
-                          end=(a.x2, a.y2), width=a.width, clearance=clearance) for a in board.arcs]
-    copper += [CopperItem("via", v.net, ("F.Cu", "B.Cu"), start=(v.x, v.y), width=v.diameter,
-                          clearance=clearance) for v in board.vias]
+    copper += [
+        CopperItem(
+            "track",
+            t.net,
+            (t.layer,),
+            start=(t.x1, t.y1),
+            end=(t.x2, t.y2),
+            width=t.width,
+            clearance=clearance,
+        )
+        for t in board.tracks
+    ]
+    copper += [
+        CopperItem(
+            "arc",
+            a.net,
+            (a.layer,),
+            start=(a.x1, a.y1),
+            mid=(a.xm, a.ym),
+            end=(a.x2, a.y2),
+            width=a.width,
+            clearance=clearance,
+        )
+        for a in board.arcs
+    ]
+    copper += [
+        CopperItem(
+            "via", v.net, ("F.Cu", "B.Cu"), start=(v.x, v.y), width=v.diameter, clearance=clearance
+        )
+        for v in board.vias
+    ]
     outline = ((0, 0), (board.width, 0), (board.width, board.height), (0, board.height))
-    return BoardGeometry(outline=(outline,), copper=tuple(copper),
-                         edge_clearance=board.rules.edge_clearance)
+    return BoardGeometry(
+        outline=(outline,), copper=tuple(copper), edge_clearance=board.rules.edge_clearance
+    )
 
 
 def _pad_item(pad, clearance: int) -> CopperItem:
+    layers: tuple[str, ...]
     if pad.kind == "thru_round":
         polygon, layers = circle_polygon(pad.x, pad.y, pad.size / 2), ("F.Cu", "B.Cu")
     else:
@@ -171,6 +226,7 @@ def _pad_item(pad, clearance: int) -> CopperItem:
 
 
 # --- octilinear paths -------------------------------------------------------------------
+
 
 def is_octilinear(a: Point, b: Point) -> bool:
     dx, dy = b[0] - a[0], b[1] - a[1]
@@ -220,5 +276,8 @@ def simplify_path(points) -> tuple[Point, ...]:
 
 
 def bends(path) -> int:
-    return sum(1 for i in range(1, len(path) - 1)
-               if direction(path[i - 1], path[i]) != direction(path[i], path[i + 1]))
+    return sum(
+        1
+        for i in range(1, len(path) - 1)
+        if direction(path[i - 1], path[i]) != direction(path[i], path[i + 1])
+    )

@@ -65,6 +65,7 @@ class GeneratorSource:
     def folder(self, index: int, work: Path) -> Path:
         from pcbdata.kicad_writer import board_files
 
+        assert self._spec.seed is not None  # synthetic configs have a seed
         instance = self._generator.generate(self._spec.seed, self._split, index)
         target = work / "instance"
         shutil.rmtree(target, ignore_errors=True)
@@ -75,10 +76,7 @@ class GeneratorSource:
 
 
 def _split_size(spec: ConfigSpec, split: str) -> int:
-    from pcbdata.presets import d1_preset, d2_level
-
-    splits = d1_preset().splits if spec.family == "d1" else d2_level(spec.level).splits
-    return int(splits[split])
+    return int(spec.sizes[split])
 
 
 def make_source(spec: ConfigSpec, root, split: str, rows, count: int | None):

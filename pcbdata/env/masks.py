@@ -41,11 +41,9 @@ def phase_of(net: str | None, head: Head | None) -> int:
     return NO_NET if net is None else (NET if head is None else ROUTING)
 
 
-def mode_mask(walkaround_ready: bool) -> tuple[np.ndarray, dict[str, str]]:
+def mode_mask() -> tuple[np.ndarray, dict[str, str]]:
     mask = np.ones(len(MODES), dtype=np.int8)
     reasons = {MODES[m]: r for m, r in MODE_UNAVAILABLE.items()}
-    if not walkaround_ready:
-        reasons["walkaround"] = "the walkaround router (pcbdata.env.walkaround) is not installed"
     for name in reasons:
         mask[MODES.index(name)] = 0
     return mask, reasons

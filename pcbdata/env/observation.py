@@ -5,6 +5,8 @@ layer columns the copper layer's index in `layers` (KiCad's stack order, F.Cu fi
 """
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from gymnasium import spaces
 
@@ -69,7 +71,7 @@ def observation_space(o) -> spaces.Dict:
     })
 
 
-def _fill(space: spaces.Box, rows: list[tuple]) -> tuple[np.ndarray, np.int64]:
+def _fill(space: Any, rows: list[tuple]) -> tuple[np.ndarray, np.ndarray]:
     out = np.zeros(space.shape, dtype=space.dtype)
     rows = rows[: space.shape[0]]
     if rows:
@@ -98,7 +100,7 @@ def _shape_code(shape: str) -> int:
     return next((i for i, s in enumerate(PAD_SHAPES) if s.lower() == key), 0)
 
 
-def static_part(static: StaticBoard, space: spaces.Dict) -> dict:
+def static_part(static: StaticBoard, space: Any) -> dict:
     """`board_static`, built once per episode."""
     net_index = {n.name: i for i, n in enumerate(static.nets)}
     outline = [(mm(x), mm(y), r) for r, ring in enumerate(static.outline) for x, y in ring]
@@ -159,7 +161,7 @@ def _root(parent: dict, key: int) -> int:
     return key
 
 
-def geometry_part(static: StaticBoard, snap: dict, space: spaces.Dict) -> tuple[dict, bool]:
+def geometry_part(static: StaticBoard, snap: dict, space: Any) -> tuple[dict, bool]:
     """`routing_geometry` and whether a list had to be cut to its capacity."""
     tracks, vias = _copper_rows(static, snap["copper"])
     labels = snap["pad_cluster"]
@@ -170,14 +172,14 @@ def geometry_part(static: StaticBoard, snap: dict, space: spaces.Dict) -> tuple[
     track_rows, track_count = _fill(space["tracks"], tracks)
     via_rows, via_count = _fill(space["vias"], vias)
     edge_rows, edge_count = _fill(space["ratsnest"], edges)
-    cut = len(tracks) > track_count or len(vias) > via_count or len(edges) > edge_count
+    cut = bool(len(tracks) > track_count or len(vias) > via_count or len(edges) > edge_count)
     return {"tracks": track_rows, "track_count": track_count, "vias": via_rows,
             "via_count": via_count, "pad_connected": connected, "ratsnest": edge_rows,
             "ratsnest_count": edge_count, "unconnected": _int(snap["unconnected"])}, cut
 
 
 def head_part(static: StaticBoard, phase: int, net: str | None, head: Head | None,
-              cands: list[Candidate], space: spaces.Dict) -> dict:
+              cands: list[Candidate], space: Any) -> dict:
     rows = [(c.kind, mm(c.x), mm(c.y), c.layer) for c in cands]
     return {"phase": np.int64(phase),
             "net": _int(static.net_index(net) if net is not None else -1),
@@ -190,7 +192,7 @@ def _code(table: tuple, value: str) -> int:
     return table.index(value) if value in table else 0
 
 
-def drc_part(static: StaticBoard, counted: list[dict], space: spaces.Dict) -> dict:
+def drc_part(static: StaticBoard, counted: list[dict], space: Any) -> dict:
     """The first violations (canonical order) of those the reward counts, unconnected items
     left out: KiCad picks the items an unconnected edge names in an order that varies from run
     to run, so open connections are given by the deterministic `routing_geometry.ratsnest`.

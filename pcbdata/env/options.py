@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import difflib
 from dataclasses import dataclass, fields, replace
+from typing import Any
 
 from pcbdata.evaluator.metrics import Weights
 
@@ -33,12 +34,12 @@ class EnvOptions:
     drc: str = "step"  # "step": KiCad DRC after every copper change; "terminal": at the end
     ring_mm: float = 0.5
     max_candidates: int = 64
-    max_nets: int | None = None
-    max_pads: int | None = None
-    max_tracks: int | None = None
-    max_vias: int | None = None
-    max_outline_points: int | None = None
-    max_ratsnest: int | None = None
+    max_nets: int = 0  # 0: the family's capacity (CAPACITIES)
+    max_pads: int = 0
+    max_tracks: int = 0
+    max_vias: int = 0
+    max_outline_points: int = 0
+    max_ratsnest: int = 0
     max_violations: int = 32
     router_nodes: int = 20000
     router_seconds: float = 2.0  # safety net only: the node budget keeps results deterministic
@@ -73,7 +74,11 @@ def make_options(**given) -> EnvOptions:
             close = difflib.get_close_matches(str(value), allowed, n=1, cutoff=0.3)
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise ValueError(f"option {name}={value!r} is not one of {', '.join(allowed)}{hint}")
+    negative = [name for name in CAPACITIES["d2"] if getattr(options, name) < 0]
+    if negative:
+        raise ValueError(f"{negative[0]} must be >= 1 (0: the family's default)")
     if options.max_steps < 1 or options.max_candidates < 9:
         raise ValueError("max_steps must be >= 1 and max_candidates >= 9 (8 ring slots + 1)")
     caps = CAPACITIES.get(options.family(), CAPACITIES["d3"])
-    return replace(options, **{k: v for k, v in caps.items() if getattr(options, k) is None})
+    unset: dict[str, Any] = {k: v for k, v in caps.items() if getattr(options, k) == 0}
+    return replace(options, **unset)

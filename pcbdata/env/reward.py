@@ -2,41 +2,23 @@
 
 The one place where the environment meets `pcbdata.evaluator.metrics`: the counting rule
 ("strict": error-severity violations + unconnected items + the warnings via_dangling,
-track_dangling, net_conflict; "evaluation": without those warnings) is applied here, through
-the metrics' `counting` keyword when it has one, else by filtering first.
+track_dangling, net_conflict; "evaluation": without those warnings) is the evaluator's.
 """
 from __future__ import annotations
 
-import inspect
-
 from pcbdata.evaluator import metrics
-from pcbdata.evaluator.metrics import Weights
+from pcbdata.evaluator.metrics import COUNTINGS, Weights
 
-COUNTINGS = ("strict", "evaluation")
+__all__ = ["COUNTINGS", "EVALUATOR_COUNTING", "Telescope", "board_state", "canonical", "counted",
+           "unconnected_from_clusters"]
 
-
-def _metrics_count() -> bool:
-    return "counting" in inspect.signature(metrics.board_state).parameters
-
-
-def evaluator_counting() -> str:
-    """The counting `pcbdata eval` uses for Pot.: "evaluation" once the metrics take the
-    `counting` keyword; before that, the evaluator counted the three warnings too ("strict")."""
-    return "evaluation" if _metrics_count() else "strict"
-
-
-def _evaluation_filter(violations: list[dict]) -> list[dict]:
-    return [v for v in violations if v["severity"] != "excluded"
-            and (v["section"] == "unconnected" or v["severity"] == "error")]
+#: The counting `pcbdata eval` reports Pot. under.
+EVALUATOR_COUNTING = "evaluation"
 
 
 def board_state(measurement: dict, weights: Weights, counting: str) -> dict:
     """The evaluator's `board_state` (DRV, U, f, WL, Via, Phi) under `counting`."""
-    if _metrics_count():
-        return metrics.board_state(measurement, weights, counting=counting)
-    if counting == "evaluation":
-        measurement = {**measurement, "violations": _evaluation_filter(measurement["violations"])}
-    return metrics.board_state(measurement, weights)
+    return metrics.board_state(measurement, weights, counting=counting)
 
 
 def canonical(violations: list[dict]) -> list[dict]:
@@ -72,7 +54,4 @@ class Telescope:
 
 def counted(violations: list[dict], counting: str) -> list[dict]:
     """The violations `counting` counts (the same rule as `board_state`)."""
-    if "counting" in inspect.signature(metrics.counted_violations).parameters:
-        return metrics.counted_violations(violations, counting=counting)
-    kept = metrics.counted_violations(violations)
-    return _evaluation_filter(kept) if counting == "evaluation" else kept
+    return metrics.counted_violations(violations, counting=counting)

@@ -16,6 +16,7 @@ import multiprocessing.util
 import os
 import time
 from pathlib import Path
+from typing import Any
 
 from pcbdata.errors import UserError
 
@@ -55,7 +56,7 @@ def run_episode(env, agent, board_id: str, seed: int) -> dict:
             "engine_failure": info.get("engine_failure")}
 
 
-_ENV = {}
+_ENV: dict[str, Any] = {}
 
 
 def _env(env_kwargs: dict):

@@ -7,11 +7,11 @@ be done changes nothing and says why.
 """
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass, field
 
 from pcbdata.env.types import MARK_OBSTACLES, WALKAROUND, Head, NetRules, StaticBoard
+from pcbdata.env.walkaround import RouteRequest, mark_obstacles_path
 
 
 @dataclass
@@ -23,27 +23,10 @@ class Outcome:
     stats: dict = field(default_factory=dict)
 
 
-def walkaround_module():
-    """The walkaround router's module, or None while it is not installed."""
-    try:
-        from pcbdata.env import walkaround
-    except ImportError:
-        return None
-    return walkaround
-
-
 def octilinear_line(start, goal) -> tuple:
     """The mark-obstacles line: straight when the direction is a multiple of 45 degrees, else
-    a diagonal then a straight segment (the router's own `mark_obstacles_path` when present)."""
-    module = walkaround_module()
-    if module is not None and hasattr(module, "mark_obstacles_path"):
-        return tuple(tuple(p) for p in module.mark_obstacles_path(tuple(start), tuple(goal)))
-    dx, dy = goal[0] - start[0], goal[1] - start[1]
-    if dx == 0 or dy == 0 or abs(dx) == abs(dy):
-        return (tuple(start), tuple(goal))
-    d = min(abs(dx), abs(dy))
-    corner = (start[0] + int(math.copysign(d, dx)), start[1] + int(math.copysign(d, dy)))
-    return (tuple(start), corner, tuple(goal))
+    a straight then a diagonal segment (`walkaround.mark_obstacles_path`)."""
+    return mark_obstacles_path((int(start[0]), int(start[1])), (int(goal[0]), int(goal[1])))
 
 
 def via_layer(static: StaticBoard, layer: int) -> int:
@@ -54,8 +37,6 @@ def via_layer(static: StaticBoard, layer: int) -> int:
 def _path(router, mode: int, net: NetRules, layer: str, start, goal, budget) -> Outcome:
     if mode == MARK_OBSTACLES:
         return Outcome(True, edits=[octilinear_line(start, goal)])
-    from pcbdata.env.walkaround import RouteRequest
-
     began = time.perf_counter()
     result = router().route(RouteRequest(net=net.name, layer=layer, start=tuple(start),
                                          goal=tuple(goal), width=net.track_width,

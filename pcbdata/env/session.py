@@ -21,14 +21,17 @@ class KicadSession:
     RECYCLE_EVERY = 200
 
     def __init__(self, task_timeout: float, env: dict | None = None):
-        self._pool_args = {"workers": 1, "tasks_per_worker": 10**9,
-                           "task_timeout": task_timeout, "env": env}
-        self._pool = KicadPool(**self._pool_args)
+        self._task_timeout, self._env = task_timeout, env
+        self._pool = self._new_pool()
         self._opened = 0
         self.work = Path(tempfile.mkdtemp(prefix="pcbdata-env-"))  # private: stage, instance
         self.alive = False
         # An environment dropped without close() still stops its worker and removes its folder.
         self._finalizer = weakref.finalize(self, _release, self._pool, str(self.work))
+
+    def _new_pool(self) -> KicadPool:
+        return KicadPool(workers=1, tasks_per_worker=10**9, task_timeout=self._task_timeout,
+                         env=self._env)
 
     def _call(self, function: str, *args):
         outcome = next(iter(self._pool.map(f"{SESSION}:{function}", [args])))
@@ -44,7 +47,7 @@ class KicadSession:
         self._opened += 1
         if self._opened % self.RECYCLE_EVERY == 0:
             self._pool.close()
-            self._pool = KicadPool(**self._pool_args)
+            self._pool = self._new_pool()
             self._finalizer.detach()
             self._finalizer = weakref.finalize(self, _release, self._pool, str(self.work))
         value = self._call("open_instance", board, project, rules, str(self.work / "stage"))

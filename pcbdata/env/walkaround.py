@@ -13,6 +13,7 @@ the inset board corners; two nodes are linked by a straight or one-bend octiline
 runs lazily: a link is checked only when A* pops the node it leads to, which keeps the number
 of geometry checks near the number of expansions.
 """
+
 from __future__ import annotations
 
 import math
@@ -22,18 +23,29 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-from pcbdata.env.geometry import (BoardGeometry, CopperItem, Point, bends, copper_core, direction,
-                                  is_octilinear, item_sort_key, octilinear_length, one_bend_paths,
-                                  simplify_path)
+from pcbdata.env.geometry import (
+    BoardGeometry,
+    CopperItem,
+    Point,
+    bends,
+    copper_core,
+    direction,
+    is_octilinear,
+    item_sort_key,
+    octilinear_length,
+    one_bend_paths,
+    simplify_path,
+)
 
-SAFETY = 2_000        # nm beyond every clearance: slack for KiCad's own integer rounding
-NODE_MARGIN = 3_000   # nm beyond clearance for corner nodes: links along a keep-out pass SAFETY
+SAFETY = 2_000  # nm beyond every clearance: slack for KiCad's own integer rounding
+NODE_MARGIN = 3_000  # nm beyond clearance for corner nodes: links along a keep-out pass SAFETY
 _ROOT2 = math.sqrt(2)
 # Outward normals of the octagon's sides, counter-clockwise from +x.
 _NORMALS = np.array([(math.cos(k * math.pi / 4), math.sin(k * math.pi / 4)) for k in range(8)])
 # Corner k of an octagon is where side k meets side k+1: p = inverse(normals) @ (h_k, h_k+1).
-_CORNER_SOLVERS = np.array([np.linalg.inv(np.stack([_NORMALS[k], _NORMALS[(k + 1) % 8]]))
-                            for k in range(8)])
+_CORNER_SOLVERS = np.array(
+    [np.linalg.inv(np.stack([_NORMALS[k], _NORMALS[(k + 1) % 8]])) for k in range(8)]
+)
 _EDGE = "edge"
 # The search first looks at corners within this margin of the start-goal box (nm or share
 # of its size, whichever is larger) and doubles it while that window holds no path.
@@ -56,17 +68,20 @@ class RouteRequest:
 
 @dataclass(frozen=True)
 class RouteResult:
-    path: tuple[tuple[int, int], ...] | None   # start ... goal, octilinear; None = no path
-    reason: str                                 # "" on success; why not otherwise
-    stats: dict = field(default_factory=dict)   # method, expanded, checks, nodes, seconds, ...
+    path: tuple[tuple[int, int], ...] | None  # start ... goal, octilinear; None = no path
+    reason: str  # "" on success; why not otherwise
+    stats: dict = field(default_factory=dict)  # method, expanded, checks, nodes, seconds, ...
 
 
 def mark_obstacles_path(start: Point, goal: Point) -> tuple[Point, ...]:
     """The `mark_obstacles` line: straight if octilinear, else straight then 45 degrees."""
-    return one_bend_paths(start, goal)[0] if start != goal else (tuple(start),)
+    if start == goal:
+        return ((int(start[0]), int(start[1])),)
+    return one_bend_paths(start, goal)[0]
 
 
 # --- obstacles -------------------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class _Prepared:
@@ -74,8 +89,8 @@ class _Prepared:
 
     core: shapely.Geometry
     radius: float
-    support: tuple[float, ...]    # max of normal_k . p over the core, k = 0..7
-    inner: tuple[float, float]    # a point of the core
+    support: tuple[float, ...]  # max of normal_k . p over the core, k = 0..7
+    inner: tuple[float, float]  # a point of the core
     convex: bool
 
 
@@ -94,7 +109,9 @@ class _Layer:
         # records: (kind, net, clearance, prepared); net "" and edges are obstacles to every net.
         self.kind = [r[0] for r in records]
         self.net = [r[1] for r in records]
-        self.code = np.array([-1 if r[0] == _EDGE else net_codes[r[1]] for r in records], dtype=np.int64)
+        self.code = np.array(
+            [-1 if r[0] == _EDGE else net_codes[r[1]] for r in records], dtype=np.int64
+        )
         self.is_edge = np.array([r[0] == _EDGE for r in records], dtype=bool)
         self.clearance = np.array([r[2] for r in records], dtype=float)
         prepared = [r[3] for r in records]
@@ -120,8 +137,14 @@ class _Rules:
     segment wholly beyond one of its sides is clear without an exact test.
     """
 
-    def __init__(self, layer: _Layer, net_code: int, half_width: float, clearance: float,
-                 edge_clearance: float):
+    def __init__(
+        self,
+        layer: _Layer,
+        net_code: int,
+        half_width: float,
+        clearance: float,
+        edge_clearance: float,
+    ):
         self.layer = layer
         self.half_width = half_width
         obstacle = layer.is_edge | (layer.code <= 0) | (layer.code != net_code)
@@ -159,7 +182,7 @@ class _Rules:
         obstacles = np.flatnonzero(self.obstacle)
         if not len(segments) or not len(obstacles):
             return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
-        lowest = (segments @ _NORMALS.T).min(axis=1)                          # (k, 8)
+        lowest = (segments @ _NORMALS.T).min(axis=1)  # (k, 8)
         if len(segments) * len(obstacles) <= _DENSE_PAIRS:
             near = ~(lowest[:, None, :] >= self.reach[obstacles][None]).any(axis=2)
             seg, j = np.nonzero(near)
@@ -203,11 +226,14 @@ def _segments(path) -> np.ndarray:
 
 # --- the router ------------------------------------------------------------------------------
 
+
 class WalkaroundRouter:
     """Plans octilinear paths on a snapshot of the board; make a new one (or `update`) after
     every copper change."""
 
-    def __init__(self, board: BoardGeometry, budget_nodes: int = 20000, budget_seconds: float = 1.0):
+    def __init__(
+        self, board: BoardGeometry, budget_nodes: int = 20000, budget_seconds: float = 1.0
+    ):
         self.budget_nodes = budget_nodes
         self.budget_seconds = budget_seconds
         self._cache: dict[CopperItem, _Prepared] = {}
@@ -217,7 +243,9 @@ class WalkaroundRouter:
         """Takes a new board snapshot; items seen before reuse their prepared shapes."""
         self.board = board
         items = sorted(board.copper, key=item_sort_key)
-        self._cache = {item: self._cache.get(item) or _prepare(*copper_core(item)) for item in items}
+        self._cache = {
+            item: self._cache.get(item) or _prepare(*copper_core(item)) for item in items
+        }
         self._region, edges = _board_region(board.outline)
         self._edge_records = [(_EDGE, "", board.edge_clearance, _prepare(e, 0.0)) for e in edges]
         nets = sorted({item.net for item in items} - {""})
@@ -226,24 +254,31 @@ class WalkaroundRouter:
         for item in items:
             for layer in item.layers:
                 self._by_layer.setdefault(layer, []).append(
-                    (item.kind, item.net, item.clearance, self._cache[item]))
+                    (item.kind, item.net, item.clearance, self._cache[item])
+                )
         self._layers: dict[str, _Layer] = {}
         self._inset_corners: dict[float, np.ndarray] = {}
 
     # --- public checks ---
 
-    def segment_is_clear(self, net: str, layer: str, a: Point, b: Point, width: int, clearance: int) -> bool:
+    def segment_is_clear(
+        self, net: str, layer: str, a: Point, b: Point, width: int, clearance: int
+    ) -> bool:
         """Whether a track a-b of this width keeps clearance to other nets and the edge."""
         if not self._inside(np.array([a], dtype=float))[0]:
             return False
         return not self._rules(net, layer, width, clearance).failing(_segments([a, b]))[0]
 
-    def via_fits(self, net: str, at: Point, diameter: int, clearance: int, layers: tuple[str, ...]) -> bool:
+    def via_fits(
+        self, net: str, at: Point, diameter: int, clearance: int, layers: tuple[str, ...]
+    ) -> bool:
         """Whether a via of this diameter at `at` keeps clearance on every layer and to the edge."""
         if not self._inside(np.array([at], dtype=float))[0]:
             return False
         dot = _segments([at])
-        return not any(self._rules(net, layer, diameter, clearance).failing(dot)[0] for layer in layers)
+        return not any(
+            self._rules(net, layer, diameter, clearance).failing(dot)[0] for layer in layers
+        )
 
     # --- routing ---
 
@@ -256,13 +291,18 @@ class WalkaroundRouter:
     def _route(self, req: RouteRequest, clock: float) -> RouteResult:
         start, goal = (int(req.start[0]), int(req.start[1])), (int(req.goal[0]), int(req.goal[1]))
         if req.width <= 0 or req.clearance < 0:
-            return RouteResult(None, f"invalid request: width {req.width} nm, clearance {req.clearance} nm",
-                               {"method": "none"})
+            return RouteResult(
+                None,
+                f"invalid request: width {req.width} nm, clearance {req.clearance} nm",
+                {"method": "none"},
+            )
         rules = self._rules(req.net, req.layer, req.width, req.clearance)
         for name, point in (("start", start), ("goal", goal)):
             problem = self._point_problem(rules, point)
             if problem:
-                return RouteResult(None, f"{name} {_mm(point)} on {req.layer} {problem}", {"method": "none"})
+                return RouteResult(
+                    None, f"{name} {_mm(point)} on {req.layer} {problem}", {"method": "none"}
+                )
         if start == goal:
             return RouteResult((start,), "", {"method": "direct", "expanded": 0})
         for path in one_bend_paths(start, goal):
@@ -299,10 +339,12 @@ class WalkaroundRouter:
         items = np.flatnonzero(rules.obstacle & ~layer.is_edge)
         # Octagon sides NODE_MARGIN (not SAFETY) beyond the clearance: links along them pass.
         reach = rules.reach[items] - SAFETY + NODE_MARGIN
-        pairs = np.stack([reach, np.roll(reach, -1, axis=1)], axis=2)            # (m, 8, 2)
+        pairs = np.stack([reach, np.roll(reach, -1, axis=1)], axis=2)  # (m, 8, 2)
         parts = [np.einsum("kij,mkj->mki", _CORNER_SOLVERS, pairs).reshape(-1, 2)]
         for i in items[~layer.convex[items]]:  # octagons lose a zone's bays: add its own corners
-            grown = shapely.buffer(layer.cores[i], rules.need[i] - SAFETY + NODE_MARGIN, join_style="mitre")
+            grown = shapely.buffer(
+                layer.cores[i], rules.need[i] - SAFETY + NODE_MARGIN, join_style="mitre"
+            )
             parts.append(shapely.get_coordinates(shapely.boundary(grown)))
         parts.append(self._board_corners(rules.half_width))
         return np.round(np.concatenate(parts))
@@ -311,10 +353,16 @@ class WalkaroundRouter:
         if self._region is None:
             return np.empty((0, 2))
         if half_width not in self._inset_corners:
-            inset = shapely.buffer(self._region, -(half_width + self.board.edge_clearance + NODE_MARGIN),
-                                   join_style="mitre")
-            self._inset_corners[half_width] = (np.empty((0, 2)) if inset.is_empty else
-                                               shapely.get_coordinates(shapely.boundary(inset)))
+            inset = shapely.buffer(
+                self._region,
+                -(half_width + self.board.edge_clearance + NODE_MARGIN),
+                join_style="mitre",
+            )
+            self._inset_corners[half_width] = (
+                np.empty((0, 2))
+                if inset.is_empty
+                else shapely.get_coordinates(shapely.boundary(inset))
+            )
         return self._inset_corners[half_width]
 
 
@@ -347,7 +395,9 @@ class _Search:
     lower. When the window holds no path, it grows until it covers every node.
     """
 
-    def __init__(self, router: WalkaroundRouter, rules: _Rules, start: Point, goal: Point, clock: float):
+    def __init__(
+        self, router: WalkaroundRouter, rules: _Rules, start: Point, goal: Point, clock: float
+    ):
         self.router, self.rules, self.clock = router, rules, clock
         self.start, self.goal = start, goal
         self.checks = self.expanded = 0
@@ -355,7 +405,11 @@ class _Search:
         if len(corners):
             corners = corners[router._inside(corners)]
             corners = corners[~rules.failing(np.stack([corners, corners], axis=1))]
-        corners = np.unique(corners, axis=0).astype(np.int64) if len(corners) else np.empty((0, 2), np.int64)
+        corners = (
+            np.unique(corners, axis=0).astype(np.int64)
+            if len(corners)
+            else np.empty((0, 2), np.int64)
+        )
         ends = np.array([start, goal], dtype=np.int64)
         self.corners = corners[~(corners[:, None, :] == ends[None]).all(axis=2).any(axis=1)]
         self.ends = ends
@@ -373,12 +427,16 @@ class _Search:
             margin *= 2
 
     def _over_budget(self) -> bool:
-        return (self.expanded >= self.router.budget_nodes or
-                time.perf_counter() - self.clock > self.router.budget_seconds)
+        return (
+            self.expanded >= self.router.budget_nodes
+            or time.perf_counter() - self.clock > self.router.budget_seconds
+        )
 
     def _budget_reason(self) -> str:
-        return (f"no path within the search budget ({self.router.budget_nodes} nodes, "
-                f"{self.router.budget_seconds:g} s)")
+        return (
+            f"no path within the search budget ({self.router.budget_nodes} nodes, "
+            f"{self.router.budget_seconds:g} s)"
+        )
 
     def _astar(self, nodes: np.ndarray) -> RouteResult | None:
         """A path through `nodes`, a failed result when out of budget, None when there is none."""
@@ -415,7 +473,7 @@ class _Search:
         self.checks += len(targets)
         bad = np.zeros(2 * len(targets), dtype=bool)
         bad[owner[self.rules.failing(segments)]] = True
-        return ~bad[:len(targets)] | ~bad[len(targets):]
+        return ~bad[: len(targets)] | ~bad[len(targets) :]
 
     def _link(self, a: Point, b: Point, heading) -> tuple[Point, ...] | None:
         """A clear straight or one-bend path a-b (points after a), preferring no bend at a."""
@@ -431,13 +489,22 @@ class _Search:
         while node != 0:
             node = int(parent[node])
             chain.append(node)
-        corners = [tuple(int(c) for c in self.nodes[i]) for i in reversed(chain)]
+        corners = [(int(self.nodes[i][0]), int(self.nodes[i][1])) for i in reversed(chain)]
         path = self._shortcut(tuple(corners))
-        stats = {"method": "search", "expanded": self.expanded, "checks": self.checks,
-                 "nodes": len(self.nodes)}
-        if path is None or self.rules.failing(_segments(path)).any() or not all(
-                is_octilinear(a, b) for a, b in zip(path, path[1:])):
-            return RouteResult(None, "internal error: the search path failed its final check", stats)
+        stats = {
+            "method": "search",
+            "expanded": self.expanded,
+            "checks": self.checks,
+            "nodes": len(self.nodes),
+        }
+        if (
+            path is None
+            or self.rules.failing(_segments(path)).any()
+            or not all(is_octilinear(a, b) for a, b in zip(path, path[1:]))
+        ):
+            return RouteResult(
+                None, "internal error: the search path failed its final check", stats
+            )
         stats["length"] = sum(octilinear_length(a, b) for a, b in zip(path, path[1:]))
         stats["bends"] = bends(path)
         return RouteResult(path, "", stats)
@@ -461,11 +528,21 @@ class _Search:
         return simplify_path(out)
 
     def _fail(self, reason: str) -> RouteResult:
-        return RouteResult(None, reason, {"method": "search", "expanded": self.expanded,
-                                          "checks": self.checks, "nodes": len(self.corners) + 2})
+        return RouteResult(
+            None,
+            reason,
+            {
+                "method": "search",
+                "expanded": self.expanded,
+                "checks": self.checks,
+                "nodes": len(self.corners) + 2,
+            },
+        )
 
 
-def _link_segments(a: np.ndarray, targets: np.ndarray, variant: int) -> tuple[np.ndarray, np.ndarray]:
+def _link_segments(
+    a: np.ndarray, targets: np.ndarray, variant: int
+) -> tuple[np.ndarray, np.ndarray]:
     """Segments (k, 2, 2) of the links a -> targets and the link each belongs to.
 
     Variant 0 runs straight then 45 degrees, variant 1 45 degrees then straight; an

@@ -6,6 +6,7 @@ next to the first pad. Every path found becomes tracks of its net, so later nets
 The legality check is independent of the router's own shapes: pads are exact circles and
 rounded rectangles (a rectangle grown by the corner radius), tracks exact capsules.
 """
+
 from __future__ import annotations
 
 import math
@@ -86,7 +87,9 @@ def _connect_with_via(name, board, router, calls, a: Pad, b: Pad) -> bool:
         second = _route(name, board, router, calls, a.net, b.layer, at, (b.x, b.y))
         if not second:
             continue
-        board.vias.append(Via(x=at[0], y=at[1], diameter=rules.via_diameter, drill=rules.via_drill, net=a.net))
+        board.vias.append(
+            Via(x=at[0], y=at[1], diameter=rules.via_diameter, drill=rules.via_drill, net=a.net)
+        )
         _commit(board, router, a.net, a.layer, first)
         _commit(board, router, a.net, b.layer, second)
         return True
@@ -94,24 +97,40 @@ def _connect_with_via(name, board, router, calls, a: Pad, b: Pad) -> bool:
 
 
 def _route(name, board, router, calls, net, layer, start, goal):
-    request = RouteRequest(net=net, layer=layer, start=start, goal=goal,
-                           width=board.rules.track_width, clearance=board.rules.clearance)
+    request = RouteRequest(
+        net=net,
+        layer=layer,
+        start=start,
+        goal=goal,
+        width=board.rules.track_width,
+        clearance=board.rules.clearance,
+    )
     began = time.perf_counter()
     result = router.route(request)
     seconds = time.perf_counter() - began
-    calls.append(Call(name, net, seconds, result.stats.get("method", ""), result.path is not None,
-                      result.reason))
+    calls.append(
+        Call(
+            name,
+            net,
+            seconds,
+            result.stats.get("method", ""),
+            result.path is not None,
+            result.reason,
+        )
+    )
     return result.path
 
 
 def _commit(board: Board, router: WalkaroundRouter, net: str, layer: str, path) -> None:
     for (x1, y1), (x2, y2) in zip(path, path[1:]):
-        board.tracks.append(Track(x1=x1, y1=y1, x2=x2, y2=y2, width=board.rules.track_width,
-                                  net=net, layer=layer))
+        board.tracks.append(
+            Track(x1=x1, y1=y1, x2=x2, y2=y2, width=board.rules.track_width, net=net, layer=layer)
+        )
     router.update(geometry_from_board(board))
 
 
 # --- the exact, independent legality check ----------------------------------------------------
+
 
 def _pad_shape(pad: Pad) -> tuple[shapely.Geometry, float]:
     if pad.kind == "thru_round":
@@ -132,7 +151,9 @@ def copper_shapes(board: Board) -> list[tuple[str, str, str, shapely.Geometry, f
         core = shapely.LineString([(t.x1, t.y1), (t.x2, t.y2)])
         out.append((f"track {i}", t.net, t.layer, core, t.width / 2))
     for i, v in enumerate(board.vias):
-        out += [(f"via {i}", v.net, layer, shapely.Point(v.x, v.y), v.diameter / 2) for layer in LAYERS]
+        out += [
+            (f"via {i}", v.net, layer, shapely.Point(v.x, v.y), v.diameter / 2) for layer in LAYERS
+        ]
     return out
 
 
@@ -150,7 +171,9 @@ def violations(board: Board) -> list[str]:
             if gap < rules.clearance:
                 out.append(f"{what} ({net}, {layer}) is {gap:.0f} nm from {other} ({onet})")
         outline = shapely.box(0, 0, board.width, board.height)
-        if not outline.contains(core) or \
-                shapely.distance(core, outline.exterior) - radius < rules.edge_clearance:
+        if (
+            not outline.contains(core)
+            or shapely.distance(core, outline.exterior) - radius < rules.edge_clearance
+        ):
             out.append(f"{what} ({net}, {layer}) is too close to the board edge")
     return sorted(set(out))

@@ -7,7 +7,7 @@ import math
 import pytest
 
 from pcbdata.env.agents import RandomAgent, ScriptedAgent
-from pcbdata.env.reward import Telescope, evaluator_counting
+from pcbdata.env.reward import EVALUATOR_COUNTING, Telescope
 from pcbdata.env.rollout import run_episode
 from pcbdata.env.types import MARK_OBSTACLES, WALKAROUND
 
@@ -28,7 +28,7 @@ def _episodes(board_set, make_env, walkaround: bool):
     out = []
     for config, boards in (("d2", 4), ("d1-g10", 2)):
         for drc in ("step", "terminal"):
-            env = make_env(config, counting=evaluator_counting(), drc=drc, max_steps=40)
+            env = make_env(config, counting=EVALUATOR_COUNTING, drc=drc, max_steps=40)
             # DRC after every step is the slow part: half the boards with it, all without
             for index in range(boards // 2 if drc == "step" else boards):
                 board_id = f"board_{index:05d}"
@@ -56,10 +56,9 @@ def _until_end(env, agent, board_id: str, seed: int) -> dict:
 
 
 def test_summed_reward_equals_the_evaluators_pot(board_set, make_env, kicad_pool):
-    from pcbdata.env.routing import walkaround_module
     from pcbdata.evaluator import Evaluator
 
-    episodes = _episodes(board_set, make_env, walkaround_module() is not None)
+    episodes = _episodes(board_set, make_env, walkaround=True)
     with Evaluator(pool=kicad_pool) as evaluator:
         scored = dict(evaluator.score_many([(inst, saved) for inst, saved, _ in episodes]))
     assert len(scored) == len(episodes) >= 18
@@ -113,7 +112,7 @@ def test_d3_summed_reward_equals_pot(d3_set, kicad_pool, tmp_path):
     if d3_set is None or not any((d3_set / "d3-a" / "test").glob("*/board.kicad_pcb")):
         pytest.skip("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
     env = gym.make("pcbdata/Route-d3-a-v0", root=str(d3_set), drc="terminal", max_steps=60,
-                   counting=evaluator_counting())
+                   counting=EVALUATOR_COUNTING)
     try:
         pairs, rewards = [], []
         for board_id in env.unwrapped.source.board_ids[:6]:

@@ -2,18 +2,13 @@
 only) carry no clearance, shorting or crossing violation (D2 test sample)."""
 from __future__ import annotations
 
-import pytest
-
 from pcbdata.env.agents import ScriptedAgent
 from pcbdata.env.rollout import run_episode
-from pcbdata.env.routing import walkaround_module
 
 GEOMETRY_VIOLATIONS = {"clearance", "shorting_items", "tracks_crossing", "copper_edge_clearance",
                        "hole_clearance", "hole_to_hole"}
 
 
-@pytest.mark.skipif(walkaround_module() is None,
-                    reason="the walkaround router (pcbdata.env.walkaround) is not installed yet")
 def test_scripted_walkaround_boards_have_no_geometry_violation(make_env):
     env = make_env(drc="terminal")
     connected = 0
