@@ -17,10 +17,11 @@ from pcbdata.configs import get_config
 from pcbdata.env import candidates as cand
 from pcbdata.env import masks, observation, routing
 from pcbdata.env.actions import action_space, parse_action
+from pcbdata.env.errors import BoardLoadError, EngineFailure, EnvValueError
 from pcbdata.env.instances import instance_files, make_source
 from pcbdata.env.options import make_options
 from pcbdata.env.reward import Telescope, board_state, canonical, counted, unconnected_from_clusters
-from pcbdata.env.session import EngineFailure, KicadSession
+from pcbdata.env.session import KicadSession
 from pcbdata.env.static import static_board
 from pcbdata.env.types import (
     ACTION_TYPES,
@@ -36,10 +37,6 @@ from pcbdata.env.types import (
     START_ROUTE,
     Head,
 )
-
-
-class BoardLoadError(ValueError):
-    """The instance's board cannot be loaded (or is larger than the observation's capacity)."""
 
 
 class RoutingEnv(gym.Env):
@@ -71,7 +68,8 @@ class RoutingEnv(gym.Env):
         super().reset(seed=seed)
         index = self._pick(options or {})
         if self._session is None:
-            self._session = KicadSession(self.options.task_timeout, self.options.engine_env)
+            self._session = KicadSession(self.options.task_timeout, self.options.engine_env,
+                                         self.options.fast_drc)
         folder = self.source.folder(index, self._session.work)
         try:
             opened = self._timed(self._session.open, *instance_files(folder))
@@ -87,17 +85,17 @@ class RoutingEnv(gym.Env):
     def _pick(self, options: dict) -> int:
         unknown = set(options) - {"board_id", "index"}
         if unknown:
-            raise ValueError(f"unknown reset option(s) {sorted(unknown)}; use board_id or index")
+            raise EnvValueError(f"unknown reset option(s) {sorted(unknown)}; use board_id or index")
         ids = self.source.board_ids
         if "board_id" in options:
             if options["board_id"] not in ids:
-                raise ValueError(f"board_id {options['board_id']!r} is not in this environment's "
-                                 f"{len(ids)} boards ({ids[0]} ... {ids[-1]})")
+                raise EnvValueError(f"board_id {options['board_id']!r} is not in this "
+                                    f"environment's {len(ids)} boards ({ids[0]} ... {ids[-1]})")
             return ids.index(options["board_id"])
         if "index" in options:
             index = int(options["index"])
             if not 0 <= index < len(ids):
-                raise ValueError(f"index {index} out of range [0, {len(ids)})")
+                raise EnvValueError(f"index {index} out of range [0, {len(ids)})")
             return index
         return int(self.np_random.integers(len(ids)))
 
@@ -350,7 +348,7 @@ class RoutingEnv(gym.Env):
         """Writes the current board (the instance's own board with the agent's tracks and
         vias, saved by KiCad) as a `.kicad_pcb` that `pcbdata eval` scores."""
         if self._session is None:
-            raise RuntimeError("nothing to save: call reset() first")
+            raise EnvValueError("nothing to save: call reset() first")
         return self._session.save(str(path))
 
     @property

@@ -6,6 +6,7 @@ import difflib
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
+from pcbdata.env.errors import EnvOptionError, EnvValueError
 from pcbdata.evaluator.metrics import Weights
 
 #: Fixed array sizes of the observation (per family); a board larger than these is a clear
@@ -46,6 +47,7 @@ class EnvOptions:
     finish_tries: int = 3
     task_timeout: float = 120.0
     engine_env: dict | None = None  # environment of the KiCad worker (e.g. LD_PRELOAD)
+    fast_drc: bool = True  # preload pcbdata.kicad.fastwait into the worker when installed
     render_mode: str | None = None
 
     def family(self) -> str:
@@ -63,8 +65,8 @@ def make_options(**given) -> EnvOptions:
         if name not in known:
             close = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise TypeError(f"unknown option {name!r} for the pcbdata routing environment{hint} "
-                            f"(options: {', '.join(known)})")
+            raise EnvOptionError(f"unknown option {name!r} for the pcbdata routing "
+                                 f"environment{hint} (options: {', '.join(known)})")
     if isinstance(given.get("weights"), dict):
         given["weights"] = Weights(**given["weights"])
     options = EnvOptions(**given)
@@ -73,12 +75,12 @@ def make_options(**given) -> EnvOptions:
         if value not in allowed:
             close = difflib.get_close_matches(str(value), allowed, n=1, cutoff=0.3)
             hint = f"; did you mean {close[0]!r}?" if close else ""
-            raise ValueError(f"option {name}={value!r} is not one of {', '.join(allowed)}{hint}")
+            raise EnvValueError(f"option {name}={value!r} is not one of {', '.join(allowed)}{hint}")
     negative = [name for name in CAPACITIES["d2"] if getattr(options, name) < 0]
     if negative:
-        raise ValueError(f"{negative[0]} must be >= 1 (0: the family's default)")
+        raise EnvValueError(f"{negative[0]} must be >= 1 (0: the family's default)")
     if options.max_steps < 1 or options.max_candidates < 9:
-        raise ValueError("max_steps must be >= 1 and max_candidates >= 9 (8 ring slots + 1)")
+        raise EnvValueError("max_steps must be >= 1 and max_candidates >= 9 (8 ring slots + 1)")
     caps = CAPACITIES.get(options.family(), CAPACITIES["d3"])
     unset: dict[str, Any] = {k: v for k, v in caps.items() if getattr(options, k) == 0}
     return replace(options, **unset)

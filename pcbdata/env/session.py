@@ -2,32 +2,44 @@
 time limit per task) that holds the board (`pcbdata.kicad.routing_session`)."""
 from __future__ import annotations
 
+import importlib
 import shutil
 import tempfile
 import weakref
 from pathlib import Path
 
+from pcbdata.env.errors import EngineFailure
 from pcbdata.kicad.pool import KicadPool
 
 SESSION = "pcbdata.kicad.routing_session"
-
-
-class EngineFailure(RuntimeError):
-    """The KiCad worker crashed, timed out or raised: the episode cannot go on."""
 
 
 class KicadSession:
     #: A fresh worker after this many instances: KiCad keeps about 0.4 MB per loaded board.
     RECYCLE_EVERY = 200
 
-    def __init__(self, task_timeout: float, env: dict | None = None):
-        self._task_timeout, self._env = task_timeout, env
+    def __init__(self, task_timeout: float, env: dict | None = None, fast_drc: bool = True):
+        self._task_timeout, self._env = task_timeout, self.worker_env(env, fast_drc)
         self._pool = self._new_pool()
         self._opened = 0
         self.work = Path(tempfile.mkdtemp(prefix="pcbdata-env-"))  # private: stage, instance
         self.alive = False
         # An environment dropped without close() still stops its worker and removes its folder.
         self._finalizer = weakref.finalize(self, _release, self._pool, str(self.work))
+
+    @staticmethod
+    def worker_env(env: dict | None, fast_drc: bool) -> dict:
+        """The worker's environment: `env`, plus the preload that removes KiCad's 250 ms DRC
+        polling wait (`pcbdata.kicad.fastwait`, when this install has it and `fast_drc`) unless
+        `env` sets LD_PRELOAD itself."""
+        out = dict(env or {})
+        if "LD_PRELOAD" not in out:
+            try:
+                fastwait = importlib.import_module("pcbdata.kicad.fastwait")
+            except ImportError:
+                return out
+            out.update(fastwait.preload_env(enabled=fast_drc))
+        return out
 
     def _new_pool(self) -> KicadPool:
         return KicadPool(workers=1, tasks_per_worker=10**9, task_timeout=self._task_timeout,

@@ -36,10 +36,13 @@ def board_set(tmp_path_factory) -> Path:
 
 
 @pytest.fixture(scope="session")
-def d3_set() -> Path | None:
-    """A built D3 set (`pcbdata build d3`) named by PCBDATA_D3_SET, or None."""
+def d3_set(request) -> Path:
+    """A built D3 set: the one PCBDATA_D3_SET names (`pcbdata build d3` output), else the real
+    subset the curation tests build from the PCBench snapshot (skips without the snapshot)."""
     path = os.environ.get("PCBDATA_D3_SET")
-    return Path(path) if path and Path(path).is_dir() else None
+    if path and Path(path).is_dir():
+        return Path(path)
+    return request.getfixturevalue("real_subset")["out"]
 
 
 @pytest.fixture

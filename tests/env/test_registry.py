@@ -22,13 +22,14 @@ def test_one_id_per_config():
 
 
 @pytest.mark.parametrize("ident", IDS)
-def test_check_env_passes(ident, board_set, d3_set):
+def test_check_env_passes(ident, request):
     """gymnasium's check_env (spaces, reset/step contracts, seeded determinism of reset and
     step) on every registered id. D1/D2: boards from the generator (no set needed);
-    D3: a built D3 set named by PCBDATA_D3_SET."""
+    D3: the `d3_set` fixture (PCBDATA_D3_SET, else the real subset built from the PCBench
+    snapshot)."""
     options = {}
     if "-d3-" in ident:
-        options = {"root": str(_d3_root(ident, d3_set))}
+        options = {"root": str(_d3_root(ident, request.getfixturevalue("d3_set")))}
     env = gym.make(ident, **options)
     try:
         with warnings.catch_warnings():
@@ -41,8 +42,6 @@ def test_check_env_passes(ident, board_set, d3_set):
 
 
 def _d3_root(ident: str, d3_set):
-    if d3_set is None:
-        pytest.skip("D3 ids need a built D3 set: set PCBDATA_D3_SET=<pcbdata build d3 output>")
     tier = ident.split("Route-", 1)[1].rsplit("-v", 1)[0]
     if not any((d3_set / tier / "test").glob("*/board.kicad_pcb")):
         pytest.skip(f"the D3 set {d3_set} has no {tier} test boards")

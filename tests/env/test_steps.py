@@ -41,8 +41,8 @@ def test_phase_machine_masks(make_env):
     obs, info = env.reset(seed=0)
     assert info["phase"] == "no_net"
     assert list(info["action_mask"]["type"]) == [1, 1, 0, 0, 0, 0, 0]
-    assert info["action_mask"]["mode"].tolist() == [0 if "walkaround" in info["masked_modes"]
-                                                    else 1, 1, 0]
+    assert info["action_mask"]["mode"].tolist() == [1, 1, 0]
+    assert list(info["masked_modes"]) == ["push_n_shove"]
     assert "issue 11" in info["masked_modes"]["push_n_shove"]
     obs, _, _, _, info = env.step(action(NET_SELECT, net=0))
     assert info["phase"] == "net" and list(info["action_mask"]["type"]) == [1, 1, 1, 1, 0, 0, 0]
