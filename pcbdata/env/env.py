@@ -115,7 +115,7 @@ class RoutingEnv(gym.Env):
         self._drc_fresh = True
         self._net, self._head, self._step_no = None, None, 0
         self._ended, self._terminated, self._truncated = False, False, False
-        self._router = None
+        self._router, self._router_stale = None, False
         self._state = self._measure()
         self._telescope = Telescope(self._state["phi"], self.options.reward == "step")
         self._static_obs = observation.static_part(self.static,
@@ -268,13 +268,19 @@ class RoutingEnv(gym.Env):
         return report, bool(done.edits)
 
     def _get_router(self):
-        if self._router is None:
+        """The episode's walkaround router, brought up to date with the board's copper (one
+        router per episode: `update` reuses the shapes of items it has seen)."""
+        if self._router is None or self._router_stale:
             from pcbdata.env.geometry_bridge import board_geometry
             from pcbdata.env.walkaround import WalkaroundRouter
 
             geometry = board_geometry(self.static, self._snap["copper"])
-            self._router = WalkaroundRouter(geometry, budget_nodes=self.options.router_nodes,
-                                            budget_seconds=self.options.router_seconds)
+            if self._router is None:
+                self._router = WalkaroundRouter(geometry, budget_nodes=self.options.router_nodes,
+                                                budget_seconds=self.options.router_seconds)
+            else:
+                self._router.update(geometry)
+            self._router_stale = False
         return self._router
 
     def _apply(self, edits: list[dict]) -> None:
@@ -283,7 +289,7 @@ class RoutingEnv(gym.Env):
         self._drc_fresh = drc
         if drc:
             self._violations = canonical(self._snap["violations"])
-        self._router = None
+        self._router_stale = True
 
     def _finish_step(self, rejected, router, changed):
         if changed:
