@@ -29,7 +29,7 @@ def _write_set(root: Path, limit: int) -> None:
     write_set(root, "d2", "test", limit)
 
 
-def _episodes(root: Path, drc: str, limit: int, mode: int, preload: str | None,
+def _episodes(root: Path, config: str, drc: str, limit: int, mode: int, preload: str | None,
               runs: Path | None, seed: int = 0) -> dict:
     import gymnasium as gym
 
@@ -38,12 +38,11 @@ def _episodes(root: Path, drc: str, limit: int, mode: int, preload: str | None,
     from pcbdata.env.rollout import run_episode
 
     engine_env = {"LD_PRELOAD": preload} if preload else None
-    env = gym.make("pcbdata/Route-d2-v0", root=str(root), split="test", drc=drc,
+    env = gym.make(f"pcbdata/Route-{config}-v0", root=str(root), split="test", drc=drc,
                    engine_env=engine_env)
     env.reset(seed=0)  # the worker's start-up is not an episode's time
     times, steps, records = [], 0, []
-    for index in range(limit):
-        board_id = f"board_{index:05d}"
+    for board_id in env.unwrapped.source.board_ids[:limit]:
         record = run_episode(env, ScriptedAgent(seed=seed, mode=mode), board_id, seed)
         times.append(record["time_s"])
         steps += record["steps"]
@@ -54,7 +53,7 @@ def _episodes(root: Path, drc: str, limit: int, mode: int, preload: str | None,
             (runs / board_id / f"{seed}.json").write_text(json.dumps(record))
     router = env.unwrapped.timings["router_s"]
     env.close()
-    return {"drc": drc, "episodes": limit, "median_episode_s": statistics.median(times),
+    return {"drc": drc, "episodes": len(times), "median_episode_s": statistics.median(times),
             "mean_episode_s": statistics.mean(times), "steps": steps,
             "steps_per_s": steps / sum(times),
             "fully_connected": sum(r["terminated"] for r in records),
@@ -72,7 +71,10 @@ def main() -> int:
     from pcbdata.evaluator.runs import evaluate_set
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--set", help="a built set holding d2/test (default: generated)")
+    parser.add_argument("--set", help="a built set holding <config>/test (default: generated)")
+    parser.add_argument("--config", default="d2", help="d2 (default), d3-a, d3-b, ...")
+    parser.add_argument("--skip-step-drc", action="store_true",
+                        help="only terminal DRC (D3: DRC of real boards after every step is slow)")
     parser.add_argument("--limit", type=int, default=128)
     parser.add_argument("--preload", help="LD_PRELOAD for the KiCad worker")
     parser.add_argument("--k", type=int, default=5,
@@ -86,20 +88,26 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix="bench-env-") as tmp:
         root = Path(args.set) if args.set else Path(tmp) / "set"
         if not args.set:
+            if args.config != "d2":
+                parser.error("--set is needed for configs other than d2")
             _write_set(root, args.limit)
         runs = Path(tmp) / "runs"
         load_before = os.getloadavg()
-        per_step = _episodes(root, "step", args.limit, mode, args.preload, runs)
-        terminal = _episodes(root, "terminal", args.limit, mode, args.preload, None)
+        skip = args.skip_step_drc
+        per_step = None if skip else _episodes(root, args.config, "step", args.limit, mode,
+                                               args.preload, runs)
+        terminal = _episodes(root, args.config, "terminal", args.limit, mode, args.preload,
+                             runs if skip else None)
         for seed in range(1, args.k):
-            _episodes(root, "terminal", args.limit, mode, args.preload, runs, seed)
-        summary = evaluate_set(root, "d2", "test", Path(tmp) / "report", runs=runs, k=1,
+            _episodes(root, args.config, "terminal", args.limit, mode, args.preload, runs, seed)
+        summary = evaluate_set(root, args.config, "test", Path(tmp) / "report", runs=runs, k=1,
                                workers=2, progress=False, limit=args.limit)
-        at_k = evaluate_set(root, "d2", "test", Path(tmp) / "report_k", runs=runs, k=args.k,
-                            workers=2, progress=False, limit=args.limit)
+        at_k = evaluate_set(root, args.config, "test", Path(tmp) / "report_k", runs=runs,
+                            k=args.k, workers=2, progress=False, limit=args.limit)
     result = {"machine": machine(), "date": datetime.now(UTC).isoformat(timespec="minutes"),
               "load_before": load_before, "load_after": os.getloadavg(), "mode": MODES[mode],
-              "preload": args.preload, "drc_every_step": per_step, "drc_terminal": terminal,
+              "preload": args.preload, "ld_preload": os.environ.get("LD_PRELOAD"),
+              "config": args.config, "drc_every_step": per_step, "drc_terminal": terminal,
               "eval_at_1": summary["summary"], "eval_table": summary["table"],
               f"eval_at_{args.k}": at_k["summary"], "eval_table_at_k": at_k["table"]}
     text = json.dumps(result, indent=1, sort_keys=True, default=str)

@@ -33,7 +33,7 @@ ARC_MAX_CHORDS = 64
 class CopperItem:
     """One piece of copper on the board, plain data."""
 
-    kind: str  # "pad" | "track" | "arc" | "via" | "zone"
+    kind: str  # "pad" | "track" | "arc" | "via" | "zone" | "graphic" (copper drawing, text)
     net: str  # net name; "" = no net
     layers: tuple[str, ...]  # copper layers it occupies
     polygon: tuple[tuple[int, int], ...] = ()  # pads, zones: outline (nm), closed implicitly
@@ -68,7 +68,7 @@ def item_sort_key(item: CopperItem) -> tuple:
 
 def copper_core(item: CopperItem) -> tuple[shapely.Geometry, float]:
     """(core, radius) whose buffer contains the item's copper."""
-    if item.kind in ("pad", "zone"):
+    if item.kind in ("pad", "zone", "graphic"):
         if len(item.polygon) < 3:
             raise ValueError(f"{item.kind} of net {item.net!r} needs a polygon of >= 3 points")
         return shapely.make_valid(shapely.Polygon(item.polygon)), 0.0

@@ -40,6 +40,9 @@ def board_geometry(static: StaticBoard, copper: list[dict]):
     items += [CopperItem(kind="zone", net=z["net"], layers=(z["layer"],),
                          polygon=tuple(tuple(p) for p in z["polygon"]),
                          clearance=clearance.get(z["net"], default)) for z in static.zones]
+    items += [CopperItem(kind="graphic", net=g["net"], layers=(g["layer"],),
+                         polygon=tuple(tuple(p) for p in g["polygon"]),
+                         clearance=clearance.get(g["net"], 0)) for g in static.graphics]
     items += [_copper_item(r, static, clearance, CopperItem) for r in copper]
     return BoardGeometry(outline=static.outline, copper=tuple(items),
                          edge_clearance=static.edge_clearance)

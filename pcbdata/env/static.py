@@ -26,6 +26,7 @@ def static_board(board_id: str, raw: dict, spec: ConfigSpec) -> StaticBoard:
     outline = tuple(tuple(tuple(pt) for pt in ring) for ring in raw["outline"])
     pitch, origin = _lattice(spec)
     return StaticBoard(board_id=board_id, layers=layers, outline=outline, nets=nets, pads=pads,
-                       zones=tuple(raw["zones"]), net_count=raw["net_count"],
+                       zones=tuple(raw["zones"]), graphics=tuple(raw["graphics"]),
+                       net_count=raw["net_count"],
                        edge_clearance=raw["edge_clearance"], grid_pitch=pitch,
                        grid_origin=origin)

@@ -75,6 +75,7 @@ class StaticBoard:
     nets: tuple[NetRules, ...]  # every net with a pad, in KiCad netcode order (action index)
     pads: tuple[PadInfo, ...]
     zones: tuple[dict, ...]
+    graphics: tuple[dict, ...]  # copper drawings and texts: {"net", "layer", "polygon"}
     net_count: int
     edge_clearance: int
     grid_pitch: int | None  # D1: lattice pitch (nm)

@@ -129,12 +129,36 @@ def _zones(board, layers: dict[str, int]) -> list[dict]:
     return out
 
 
+def _graphics(board, layers: dict[str, int]) -> list[dict]:
+    """Copper that is neither pad, track nor zone: board and footprint drawings and texts on
+    copper layers, as KiCad's own polygons (texts: their box), outlines only (holes filled)."""
+    pcbnew = _pcbnew()
+    items = list(board.GetDrawings())
+    for footprint in board.GetFootprints():
+        items += list(footprint.GraphicalItems()) + [footprint.Reference(), footprint.Value()]
+    max_error = int(board.GetDesignSettings().m_MaxError)
+    out = []
+    for item in items:
+        if hasattr(item, "IsVisible") and not item.IsVisible():
+            continue
+        net = str(item.GetNetname()) if hasattr(item, "GetNetname") else ""
+        for name, lid in layers.items():
+            if not item.IsOnLayer(lid):
+                continue
+            shape = pcbnew.SHAPE_POLY_SET()
+            item.TransformShapeToPolygon(shape, lid, 0, max_error, pcbnew.ERROR_OUTSIDE)
+            out += [{"net": net, "layer": name, "polygon": ring} for ring in _polygons(shape)
+                    if len(ring) >= 3]
+    return out
+
+
 def _static(board) -> dict:
     settings = board.GetDesignSettings()
     layers = _STATE["layers"]
     return {"layers": list(layers), "outline": _outline(board), "nets": _net_rules(board),
             "pads": [_pad_record(board, p, layers) for p in _STATE["pads"]],
-            "zones": _zones(board, layers), "net_count": int(board.GetNetCount()),
+            "zones": _zones(board, layers), "graphics": _graphics(board, layers),
+            "net_count": int(board.GetNetCount()),
             "edge_clearance": int(settings.m_CopperEdgeClearance),
             "clearance": int(settings.m_MinClearance)}
 

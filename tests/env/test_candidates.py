@@ -14,7 +14,7 @@ def _static(pitch=None) -> StaticBoard:
     nets = (NetRules("A", 300_000, 300_000, 1_200_000, 600_000),
             NetRules("B", 300_000, 300_000, 1_200_000, 600_000))
     outline = (((0, 0), (50 * MM, 0), (50 * MM, 50 * MM), (0, 50 * MM)),)
-    return StaticBoard("b", ("F.Cu", "B.Cu"), outline, nets, pads, (), 3, 300_000, pitch,
+    return StaticBoard("b", ("F.Cu", "B.Cu"), outline, nets, pads, (), (), 3, 300_000, pitch,
                        None if pitch is None else 3 * pitch // 4)
 
 

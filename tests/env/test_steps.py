@@ -242,3 +242,33 @@ def test_a_board_that_does_not_load_is_a_clear_error(tmp_path, board_set):
         assert info["unconnected"] > 0
     finally:
         env.close()
+
+
+def test_copper_text_is_an_obstacle(tmp_path, board_set):
+    """Copper drawings and texts (no net) are obstacles for the walkaround router: KiCad's DRC
+    checks tracks against them (a real D3-A board has board texts on F.Cu)."""
+    import shutil
+
+    import gymnasium as gym
+
+    folder = tmp_path / "d2" / "test" / "board_00000"
+    shutil.copytree(board_set / "d2" / "test" / "board_00000", folder)
+    board = folder / "board.kicad_pcb"
+    text = board.read_text()
+    label = ('(gr_text "COPPER" (at 5 5 0) (layer "F.Cu") '
+             '(uuid "91028994-e5d7-40f6-82ad-82470d61bbc7") '
+             '(effects (font (size 1.5 1.5) (thickness 0.3))))\n')
+    board.write_text(text[: text.rstrip().rfind(")")] + label + ")\n")
+    env = gym.make("pcbdata/Route-d2-v0", root=str(tmp_path))
+    try:
+        env.reset(options={"board_id": "board_00000"})
+        graphics = env.unwrapped.static.graphics
+        assert [g["layer"] for g in graphics] == ["F.Cu"]
+        router = env.unwrapped._get_router()
+        net = env.unwrapped.static.nets[0]
+        across = ((2_000_000, 5_000_000), (8_000_000, 5_000_000))
+        assert not router.segment_is_clear(net.name, "F.Cu", *across, net.track_width,
+                                           net.clearance)
+        assert router.segment_is_clear(net.name, "B.Cu", *across, net.track_width, net.clearance)
+    finally:
+        env.close()
