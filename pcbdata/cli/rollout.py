@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import os
+import sys
 
 VERB = "rollout"
 HELP = "run an agent (scripted, random or module:Class) in the routing environment over a set"
@@ -40,4 +41,8 @@ def run(args) -> int:
           f"failures, mean reward {mean:.3f}" if mean is not None else
           f"done: nothing to run ({summary['skipped']} already done)", end="")
     print(f", {summary['seconds']:.1f} s")
+    if summary["failed"]:
+        print(f"pcbdata: KiCad failed: {summary['failed']} rollouts failed (time limit or crash; "
+              f"see above); run again to retry them", file=sys.stderr)
+        return 3
     return 0

@@ -1,18 +1,17 @@
 """Rollouts of an agent over a board set, written as `pcbdata eval` reads them:
 `RUNS/<board_id>/<rollout>.kicad_pcb` + `<rollout>.json` (time_s, steps, reward, ...).
 
-Parallel over worker processes (spawned; each owns one environment, hence one KiCad worker),
-resumable (a rollout whose two files exist is skipped; files are written to temporary names
-and renamed, the JSON last).
+Parallel over `KicadPool` worker processes (exec-started, with a time limit per rollout; each
+keeps one environment, hence one KiCad worker of its own, for all its rollouts), resumable (a
+rollout whose JSON exists is skipped; files are written to temporary names and renamed, the
+JSON last). A rollout whose worker fails (time limit, crash) is reported and left pending.
 """
 from __future__ import annotations
 
-import concurrent.futures as cf
+import atexit
 import importlib
 import inspect
 import json
-import multiprocessing
-import multiprocessing.util
 import os
 import time
 from pathlib import Path
@@ -66,8 +65,7 @@ def _env(env_kwargs: dict):
     if "env" not in _ENV:
         kwargs = dict(env_kwargs)
         _ENV["env"] = gym.make(kwargs.pop("id"), **kwargs)
-        # Pool workers leave through os._exit: only multiprocessing's finalizers run.
-        multiprocessing.util.Finalize(None, _ENV["env"].close, exitpriority=10)
+        atexit.register(_ENV["env"].close)  # the worker ends normally when its pool stops
     return _ENV["env"]
 
 
@@ -101,30 +99,48 @@ def pending(board_ids: list[str], rollouts: int, out: Path) -> list[tuple[str, i
             if not (out / b / f"{r}.json").is_file()]
 
 
-def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, workers: int,
-                 limit: int | None = None, env_options: dict | None = None, log=print) -> dict:
-    """Runs every missing rollout; returns a summary. Progress lines go to `log`."""
-    from pcbdata.env.registry import env_id
-    from pcbdata.evaluator.runs import list_instances
+#: Wall-time limit of one rollout (episode, save and JSON) in its worker.
+ROLLOUT_TIMEOUT = 3600.0
 
+
+def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, workers: int,
+                 limit: int | None = None, env_options: dict | None = None, log=print,
+                 timeout: float = ROLLOUT_TIMEOUT) -> dict:
+    """Runs every missing rollout; returns a summary. Progress lines go to `log`."""
+    from pcbdata.configs import get_config
+    from pcbdata.env.registry import env_id, register_all
+    from pcbdata.evaluator.runs import list_instances
+    from pcbdata.kicad.pool import KicadPool
+
+    get_config(config)  # an unknown config is a UserError naming the closest one
+    if env_id(config) not in register_all():
+        raise UserError(f"config {config!r} has no environment id: the ids are one per "
+                        f"config of the registry (e.g. {env_id('d2')})")
     make_agent(agent, 0)  # a bad --agent fails before any work
     board_ids = [b for b, _ in list_instances(Path(root), config, split)][:limit]
     out = Path(out)
     todo = pending(board_ids, rollouts, out)
     env_kwargs = {"id": env_id(config), "root": str(root), "split": split, **(env_options or {})}
-    began, records = time.perf_counter(), []
-    ctx = multiprocessing.get_context("spawn")
-    with cf.ProcessPoolExecutor(max_workers=max(1, min(workers, len(todo) or 1)),
-                                mp_context=ctx) as pool:
-        futures = [pool.submit(rollout_task, env_kwargs, agent, b, r, str(out)) for b, r in todo]
-        for done, future in enumerate(cf.as_completed(futures), start=1):
-            rec = future.result()
+    began, records, failed = time.perf_counter(), [], 0
+    tasks = [(env_kwargs, agent, b, r, str(out)) for b, r in todo]
+    with KicadPool(workers=max(1, min(workers, len(todo) or 1)), task_timeout=timeout,
+                   tasks_per_worker=10**9, memory_limit_mb=0) as pool:
+        for done, outcome in enumerate(pool.map(f"{__name__}:rollout_task", tasks), start=1):
+            if not outcome.ok:
+                failed += 1
+                board_id, rollout = todo[outcome.index]
+                log(f"[{done}/{len(todo)}] {board_id} #{rollout}: failed: {outcome.error}")
+                continue
+            rec = outcome.value
             records.append(rec)
             log(f"[{done}/{len(todo)}] {rec['board_id']} #{rec['rollout']}: {rec['steps']} steps,"
                 f" reward {rec['reward']:.3f}, U {rec['unconnected']}, DRV {rec['drv']}, "
                 f"{rec['time_s']:.2f} s" + (f", engine failure: {rec['engine_failure']}"
                                             if rec.get("engine_failure") else ""))
-    return summarize(records, len(board_ids) * rollouts - len(todo), time.perf_counter() - began)
+    summary = summarize(records, len(board_ids) * rollouts - len(todo),
+                        time.perf_counter() - began)
+    summary["failed"] = failed
+    return summary
 
 
 def summarize(records: list[dict], skipped: int, seconds: float) -> dict:
