@@ -18,15 +18,23 @@ from pathlib import Path
 
 from pcbdata.configs import SYNTHETIC_SPLITS, ConfigSpec, d1_config, d2_config
 from pcbdata.errors import UserError
+from pcbdata.fsutil import output_folder
 from pcbdata.synthetic_build import (
     BuildSummary,
     ConfigInfo,
     SplitJob,
     build_synthetic,
     check_sample,
+    locked_root,
 )
 
 Log = Callable[[str], None]
+# Board ids have five digits (`board_00000` .. `board_99999`) and sort in index order only
+# while they do.
+MAX_COUNT = 100_000
+# Each worker is a separate process (a KiCad one holds ~100 MB); more is a typo that would
+# exhaust the machine's process table or memory before doing any work.
+MAX_WORKERS = 1024
 
 
 def _stderr(line: str) -> None:
@@ -57,10 +65,16 @@ class SyntheticOptions:
         return self.workers or os.cpu_count() or 1
 
     def validate(self) -> None:
-        if self.count is not None and self.count < 1:
-            raise UserError(f"--count must be >= 1, got {self.count}")
-        if self.workers is not None and self.workers < 1:
-            raise UserError(f"--workers must be >= 1, got {self.workers}")
+        from pcbdata.rng import check_seed
+
+        if self.count is not None and not 1 <= self.count <= MAX_COUNT:
+            raise UserError(f"--count must be from 1 to {MAX_COUNT}, got {self.count}")
+        if self.workers is not None and not 1 <= self.workers <= MAX_WORKERS:
+            raise UserError(f"--workers must be from 1 to {MAX_WORKERS}, got {self.workers}")
+        if self.check_train < 0:
+            raise UserError(f"--check-train must be >= 0, got {self.check_train}")
+        if self.seed is not None:
+            check_seed(self.seed)
         for split in self.splits or ():
             if split not in SYNTHETIC_SPLITS:
                 raise UserError(f"unknown split {split!r}; choose from "
@@ -96,13 +110,15 @@ def build_configs(out: str | Path, specs: list[ConfigSpec],
             raise UserError(f"config {spec.name!r}: build D3 with build_d3 (`pcbdata build d3`)")
     jobs = [job for spec in specs for job in _jobs(spec, options)]
     configs = {spec.name: _config_info(spec, options) for spec in specs}
+    output_folder(out)  # last check, first write: a refused run leaves nothing
     workers = options.resolved_workers()
     options.log(f"pcbdata build: {', '.join(sorted(configs))} -> {out} ({workers} workers)")
-    summary = build_synthetic(out, jobs, configs, workers=workers, log=options.log)
-    if options.publish:
-        from pcbdata.publish import publish_set
+    with locked_root(out):  # a second build into the folder waits for this one
+        summary = build_synthetic(out, jobs, configs, workers=workers, log=options.log)
+        if options.publish:
+            from pcbdata.publish import publish_set
 
-        publish_set(out, list(configs))
+            publish_set(out, list(configs))
     return summary
 
 
@@ -131,14 +147,23 @@ def build_d3(source: str | Path, out: str | Path, recipe: str | Path | None = No
 
     if not os.path.isdir(source):
         raise UserError(f"{source}: no such folder")
-    if workers is not None and workers < 1:
-        raise UserError("--workers must be at least 1")
+    if workers is not None and not 1 <= workers <= MAX_WORKERS:
+        raise UserError(f"--workers must be from 1 to {MAX_WORKERS}, got {workers}")
     if tasks_per_worker < 1:
         raise UserError("--tasks-per-worker must be at least 1")
-    summary = build(source, out, load_recipe(recipe), workers=workers or os.cpu_count() or 1,
-                    log=log, tasks_per_worker=tasks_per_worker)
-    if publish:
-        from pcbdata.publish import publish_set
+    recipe_data = load_recipe(recipe)
+    boards_dir = recipe_data.source.boards_dir
+    if not os.path.isdir(os.path.join(source, boards_dir)):
+        raise UserError(f"{source}: not a PCBench checkout (no {boards_dir}/ folder)")
+    output_folder(out)  # last check, first write: a refused run leaves nothing
+    from pcbdata.fsutil import folder_lock
 
-        publish_set(out, sorted(summary["tiers"]))
+    with folder_lock(out, "built"):  # a second build into the folder waits for this one
+        summary = build(source, out, recipe_data,
+                        workers=workers or min(os.cpu_count() or 1, MAX_WORKERS), log=log,
+                        tasks_per_worker=tasks_per_worker)
+        if publish:
+            from pcbdata.publish import publish_set
+
+            publish_set(out, sorted(summary["tiers"]))
     return summary

@@ -1,11 +1,18 @@
-"""Crash-safe file output: write to a temporary name in the same folder, then rename."""
+"""Crash-safe file output (write to a temporary name in the same folder, then rename) and
+the lock that keeps two processes from writing one folder at once."""
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import os
 import shutil
+import sys
 import tempfile
+import threading
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
+from pcbdata.errors import UserError
 from pcbdata.hashing import sha256_bytes, sha256_file  # noqa: F401 - re-exported for callers
 
 
@@ -68,3 +75,91 @@ def remove_stale_temps(root: str | os.PathLike) -> int:
                 os.unlink(os.path.join(dirpath, name))
                 count += 1
     return count
+
+
+LOCK_DIR = ".pcbdata"
+LOCK_NAME = "lock"
+_held: dict[str, int] = {}  # lock files this process holds -> nesting depth
+_held_guard = threading.Lock()
+
+
+def _report_wait(message: str) -> None:
+    print(f"pcbdata: {message}", file=sys.stderr, flush=True)
+
+
+@contextlib.contextmanager
+def folder_lock(folder: str | os.PathLike, doing: str = "built",
+                report: Callable[[str], None] = _report_wait) -> Iterator[Path]:
+    """Holds `folder` for one process: an exclusive `flock` on `folder/.pcbdata/lock`.
+
+    Another process holding it makes this one wait (after saying so through `report`, with
+    the holder's pid) instead of interleaving its writes. The kernel drops the lock when the
+    holder ends, even by SIGKILL, so a killed run never leaves the folder locked. Nested use
+    in one process is allowed (a build locks, then calls code that locks again).
+    """
+    path = Path(folder) / LOCK_DIR / LOCK_NAME
+    path.parent.mkdir(parents=True, exist_ok=True)
+    key = os.path.realpath(path)
+    with _held_guard:
+        if _held.get(key):
+            _held[key] += 1
+            nested = True
+        else:
+            nested = False
+    if nested:
+        try:
+            yield path
+        finally:
+            with _held_guard:
+                _held[key] -= 1
+        return
+    with open(path, "a+") as handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            handle.seek(0)
+            holder = handle.read().strip() or "unknown"
+            report(f"{folder} is being {doing} by another process (pid {holder}); "
+                   f"waiting for it to finish")
+            fcntl.flock(handle, fcntl.LOCK_EX)
+        handle.seek(0)
+        handle.truncate()
+        handle.write(f"{os.getpid()}\n")
+        handle.flush()
+        with _held_guard:
+            _held[key] = 1
+        try:
+            yield path
+        finally:
+            with _held_guard:
+                _held.pop(key, None)
+            handle.truncate(0)  # at rest the file is empty: a finished folder is the same
+            handle.flush()      # whichever process built it
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def os_reason(exc: OSError) -> str:
+    return exc.strerror or (os.strerror(exc.errno) if exc.errno else str(exc))
+
+
+def output_folder(path: str | os.PathLike, option: str = "--out") -> Path:
+    """Creates `path` (and its parents) if needed and proves a file can be written in it;
+    UserError naming the folder and the OS reason otherwise. Folders this made are removed
+    again on failure, so a refused run leaves nothing behind."""
+    path = Path(path)
+    if path.exists() and not path.is_dir():
+        raise UserError(f"{option} {path}: exists and is not a folder")
+    created = [p for p in (path, *path.parents) if not p.exists()]
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".pcbdata-probe.", suffix=".tmp", dir=path)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as exc:
+        for folder in created:  # deepest first
+            try:
+                folder.rmdir()
+            except OSError:
+                pass
+        raise UserError(f"{option} {path}: cannot write there ({os_reason(exc)})") from None
+    return path

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pcbdata.errors import UserError
 from pcbdata.generators.d2 import D2Params
 from pcbdata.resources import resource_path
+from pcbdata.rng import check_seed
 
 
 def _load(name: str) -> dict:
@@ -28,7 +29,8 @@ class D1Preset:
 
 def d1_preset() -> D1Preset:
     data = _load("d1.toml")
-    return D1Preset(version=data["version"], seed=data["seed"],
+    seed = check_seed(data["seed"], "pcbdata/resources/presets/d1.toml seed")
+    return D1Preset(version=data["version"], seed=seed,
                     grid_sizes=tuple(data["grid_sizes"]),
                     n_nets=data["n_nets"], placement=data["placement"],
                     connector_version=data["connector_version"], splits=dict(data["splits"]))
@@ -73,8 +75,19 @@ def d2_level(name: str, overrides: dict | None = None) -> D2Level:
     params = D2Params.from_dict(merged, "--set" if overrides else where)
     return D2Level(name=name, rank=levels[name]["rank"], description=levels[name]["description"],
                    params=params, version=levels[name].get("version", data["version"]),
-                   seed=data["seed"],
+                   seed=check_seed(data["seed"], "pcbdata/resources/presets/d2_levels.toml seed"),
                    splits=dict(data["splits"]), overrides=dict(overrides or {}))
+
+
+def parse_overrides(texts: list[str]) -> dict:
+    """Every `--set key=value`; a key given twice is an error (the first would be dropped)."""
+    out: dict = {}
+    for text in texts:
+        key, value = parse_override(text)
+        if key in out:
+            raise UserError(f"--set {key}: given twice ({out[key]!r} and {value!r}); keep one")
+        out[key] = value
+    return out
 
 
 def parse_override(text: str) -> tuple[str, object]:

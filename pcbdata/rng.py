@@ -14,7 +14,13 @@ from typing import TypeVar
 
 import numpy as np
 
+from pcbdata.errors import UserError
+
 T = TypeVar("T")
+
+# Seeds travel in the manifest (JSON), in every parquet row (an int64 `seed` column) and into
+# SeedSequence (non-negative integers only): 0 .. 2**63 - 1 is what all of them can hold.
+MAX_SEED = 2**63 - 1
 
 FAMILY_KEYS = {"d1": 1, "d2": 2}
 SPLIT_KEYS = {"train": 0, "validation": 1, "test": 2}
@@ -23,6 +29,14 @@ SEED_SCHEME = (
     "64-bit outputs; family d1=1, d2=2; variant = grid size for d1, 0 for d2; split train=0, "
     "validation=1, test=2; floats = top 53 bits / 2**53; integers by rejection sampling"
 )
+
+
+def check_seed(seed, where: str = "seed") -> int:
+    """`seed` if the whole pipeline can carry it, else UserError with the range."""
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:
+        raise UserError(f"{where} must be an integer from 0 to 2**63 - 1 ({MAX_SEED}): seeds "
+                        f"are stored as int64 in the published rows, got {seed!r}")
+    return seed
 
 
 class Stream:

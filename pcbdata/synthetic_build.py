@@ -11,15 +11,14 @@ import os
 import shutil
 import sys
 import time
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
-from multiprocessing import get_context
 from pathlib import Path
 
 from pcbdata import __version__
-from pcbdata.errors import EngineError, UserError, ValidationError
-from pcbdata.fsutil import remove_stale_temps, write_atomic, write_dir_atomic
+from pcbdata.errors import EngineError, GenerationError, UserError, ValidationError
+from pcbdata.fsutil import folder_lock, remove_stale_temps, write_atomic, write_dir_atomic
 from pcbdata.generators.base import Generator, SplitArrays
 from pcbdata.hashing import sha256_bytes
 from pcbdata.kicad import KicadPool
@@ -44,6 +43,8 @@ from pcbdata.tree import (
 
 STATE_DIR = SYNTHETIC_STATE_DIR
 _CHUNK = 128
+GENERATE = "pcbdata.synthetic_build:generate_chunk"
+_GENERATE_TIMEOUT = 600.0  # seconds per chunk of _CHUNK boards (about 0.2 s when idle)
 
 
 @dataclass
@@ -94,8 +95,21 @@ def check_sample(count: int, sample: int | None) -> list[int]:
     return sorted({(k * count) // sample for k in range(sample)})
 
 
+def generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> dict:
+    """Worker task: `{"entries": [...]}`; `{"user_error": message}` when a generator cannot
+    make a board, `{"os_error": [errno, strerror, filename]}` when the output cannot be
+    written (a full or read-only disk). The parent raises them again, so the user sees one
+    clear line, not an engine failure."""
+    try:
+        return {"entries": _generate_chunk(root, job, seed, indices)}
+    except UserError as exc:
+        return {"user_error": str(exc)}
+    except OSError as exc:
+        return {"os_error": [exc.errno, exc.strerror, exc.filename]}
+
+
 def _generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> list[dict]:
-    """Worker: generates boards, writes their folders if their bytes differ; returns entries."""
+    """Generates boards, writes their folders if their bytes differ; returns entries."""
     out = []
     folder = split_dir(root, job.config, job.split)
     arrays = job.generator if isinstance(job.generator, SplitArrays) else None
@@ -135,13 +149,29 @@ class _Progress:
                   file=self.stream, flush=True)
 
 
-def _prepare_root(root: Path) -> None:
+def check_root(root: str | Path) -> Path:
+    """The folder a set may be built into (raises `UserError` otherwise); writes nothing."""
+    root = Path(root)
     if root.exists() and not root.is_dir():
         raise UserError(f"{root}: exists and is not a folder")
     if root.is_dir() and any(root.iterdir()):
         if not ((root / MANIFEST_NAME).exists() or (root / STATE_DIR).exists()):
             raise UserError(f"{root}: folder is not empty and is not a pcbdata board set; "
                             f"choose an empty or new --out folder")
+    return root
+
+
+@contextmanager
+def locked_root(root: str | Path) -> Iterator[Path]:
+    """Checks `root`, then holds it for this process (`fsutil.folder_lock`): a second build
+    into the same folder waits, so its resume, leftover clean-up and manifest never race this
+    one. The CLI holds it across the build and the publication that follows."""
+    root = check_root(root)
+    with folder_lock(root, "built"):
+        yield root
+
+
+def _prepare_root(root: Path) -> None:
     (root / STATE_DIR).mkdir(parents=True, exist_ok=True)
     remove_stale_temps(root)
 
@@ -186,25 +216,31 @@ def check_problem(report: DrcReport, expected_unconnected: int) -> str | None:
 def build_synthetic(root: str | Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
                     workers: int | None = None, log: Callable[[str], None] | None = None,
                     task_timeout: float = 120.0) -> BuildSummary:
-    log = log or (lambda message: print(message, file=sys.stderr, flush=True))
-    root = Path(root)
+    with locked_root(root) as folder:
+        return _build_locked(folder, jobs, configs, workers, task_timeout)
+
+
+def _build_locked(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
+                  workers: int | None, task_timeout: float) -> BuildSummary:
     workers = max(1, workers or os.cpu_count() or 1)
     started = time.perf_counter()
     _prepare_root(root)
     summary = BuildSummary()
     entries: dict[tuple[str, str], list[dict]] = {}
-    context = get_context("spawn")
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as executor:
+    # Generation needs no KiCad but runs in the same exec-started workers: they never
+    # re-import the caller's __main__ and die with this process (multiprocessing's would not).
+    with KicadPool(workers=workers, task_timeout=_GENERATE_TIMEOUT) as pool:
         for job in jobs:
             seed = configs[job.config].seed
             progress = _Progress(f"{job.config}/{job.split} write", job.count)
             chunks = [list(range(i, min(i + _CHUNK, job.count)))
                       for i in range(0, job.count, _CHUNK)]
             results: list[dict] = []
-            for chunk in executor.map(_generate_chunk, [str(root)] * len(chunks),
-                                      [job] * len(chunks), [seed] * len(chunks), chunks):
-                results.extend(chunk)
-                progress.advance(len(chunk))
+            for outcome in pool.map(GENERATE, [(str(root), job, seed, c) for c in chunks]):
+                entries_of_chunk = _chunk_entries(outcome, job, chunks[outcome.index])
+                results.extend(entries_of_chunk)
+                progress.advance(len(entries_of_chunk))
+            results.sort(key=lambda r: r["index"])
             _remove_extra_boards(split_dir(root, job.config, job.split),
                                  {r["board_id"] for r in results})
             entries[(job.config, job.split)] = results
@@ -228,6 +264,17 @@ def build_synthetic(root: str | Path, jobs: list[SplitJob], configs: dict[str, C
     _write_manifest(root, jobs, configs, entries)
     summary.seconds = time.perf_counter() - started
     return summary
+
+
+def _chunk_entries(outcome, job: SplitJob, chunk: list[int]) -> list[dict]:
+    if outcome.ok and "user_error" in outcome.value:
+        raise GenerationError(outcome.value["user_error"])
+    if outcome.ok and "os_error" in outcome.value:
+        raise OSError(*outcome.value["os_error"])
+    if not outcome.ok:
+        raise EngineError(f"generating {job.config}/{job.split} boards {chunk[0]}-{chunk[-1]} "
+                          f"failed: {outcome.error}")
+    return outcome.value["entries"]
 
 
 def _keep_other_splits(root: Path, built: dict[str, dict]) -> None:

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Everything a fresh machine needs: KiCad 9.0.8 (bookworm-backports), a venv made from the
-# system Python (which is the one that can import pcbnew) and the package with its test extras.
+# system Python (which is the one that can import pcbnew), the package with its test extras
+# and the DRC-wait preload (build/fastwait/).
 # Idempotent: a second run only checks.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -20,4 +21,6 @@ if ! .venv/bin/python -c "import kicad_tools.router.router_cpp" 2>/dev/null; the
     .venv/bin/kct build-native >/dev/null 2>&1 \
         || echo "warning: kicad-tools' C++ backend did not build; its Python backend is used"
 fi
+# The preload that removes KiCad's 250 ms DRC polling sleep (optional: skipped without gcc).
+bash scripts/build-fastwait.sh
 .venv/bin/python -c "import pcbnew, pcbdata; print('pcbdata', pcbdata.__version__, 'with KiCad', pcbnew.Version())"

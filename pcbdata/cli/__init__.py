@@ -31,8 +31,18 @@ def verb_modules(prefix: str = ""):
             yield module
 
 
+class _Parser(argparse.ArgumentParser):
+    """Usage errors (a missing option, a value of the wrong type or range) are one line like
+    every other bad input; subcommand parsers inherit this class."""
+
+    def error(self, message: str):
+        print(f"pcbdata: error: {self.prog}: {message} (see `{self.prog} --help`)",
+              file=sys.stderr)
+        sys.exit(2)
+
+
 def make_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="pcbdata", description="Board sets, curation and scoring for PCBWorld-Bench.")
     parser.add_argument("--version", action="version", version=f"pcbdata {__version__}")
     verbs = parser.add_subparsers(dest="verb", metavar="VERB", required=True)
@@ -53,6 +63,14 @@ def main(argv: list[str] | None = None) -> int:
     except KicadError as exc:  # a pool task that failed; the pool names no board
         print(f"pcbdata: {EngineError.label}: {one_line(str(exc))}", file=sys.stderr)
         return EngineError.exit_code
+    except OSError as exc:  # a full disk, a read-only folder, ...: not a bug of pcbdata
+        from pcbdata.cli._checks import write_error_line
+
+        line = write_error_line(exc, getattr(args, "out", None) or getattr(args, "root", None))
+        if line is None:
+            raise
+        print(f"pcbdata: error: {line}", file=sys.stderr)
+        return 2
     except KeyboardInterrupt:
         print("pcbdata: interrupted; run the same command again to resume", file=sys.stderr)
         return 130

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import os
 
+from pcbdata.builders import MAX_COUNT
+from pcbdata.cli import _checks as checks
 from pcbdata.configs import SYNTHETIC_SPLITS as SPLITS
 from pcbdata.errors import UserError
 
@@ -11,15 +13,16 @@ def add_common(parser) -> None:
     parser.add_argument("--out", required=True, metavar="DIR", help="folder of the board set")
     parser.add_argument("--splits", default="train,validation,test", metavar="LIST",
                         help="comma-separated splits among train, validation, test (default: all)")
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1, metavar="N",
+    parser.add_argument("--workers", type=checks.workers,
+                        default=min(os.cpu_count() or 1, checks.MAX_WORKERS), metavar="N",
                         help="worker processes for generation and KiCad checks "
                              "(default: all cores)")
-    parser.add_argument("--seed", type=int, default=None,
-                        help="base seed (default: the preset's seed)")
-    parser.add_argument("--count", type=int, default=None, metavar="N",
+    parser.add_argument("--seed", type=checks.seed, default=None,
+                        help="base seed, 0 to 2**63 - 1 (default: the preset's seed)")
+    parser.add_argument("--count", type=checks.integer(1, MAX_COUNT), default=None, metavar="N",
                         help="boards per split instead of the preset's split sizes "
                              "(board i is the same whatever the count)")
-    parser.add_argument("--check-train", type=int, default=128, metavar="N",
+    parser.add_argument("--check-train", type=checks.non_negative, default=128, metavar="N",
                         help="train boards checked in KiCad, evenly spread (default: 128; "
                              "validation and test boards are always all checked)")
     parser.add_argument("--no-check", action="store_true",

@@ -25,10 +25,13 @@ def parse_grids(text: str, preset_grids) -> list[int]:
     grids = []
     for part in text.split(","):
         try:
-            grids.append(int(part))
+            grid = int(part)
         except ValueError:
             raise UserError(f"--grid {text!r}: {part.strip()!r} is not an integer grid size "
                             f"or 'all'") from None
+        if grid in grids:
+            raise UserError(f"--grid {text!r}: grid {grid} is listed twice")
+        grids.append(grid)
     return grids
 
 

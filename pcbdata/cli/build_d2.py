@@ -22,9 +22,9 @@ def register(parser) -> None:
 
 def run(args) -> int:
     from pcbdata.builders import build_d2
-    from pcbdata.presets import parse_override
+    from pcbdata.presets import parse_overrides
 
-    overrides = dict(parse_override(text) for text in args.overrides)
+    overrides = parse_overrides(args.overrides)
     summary = build_d2(args.out, args.level, overrides, common.options(args))
     print(f"done: {summary.line()}")
     return 0

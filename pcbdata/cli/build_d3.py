@@ -1,6 +1,8 @@
 """`pcbdata build d3`: rebuild the curated real-board set from a PCBench checkout."""
 from __future__ import annotations
 
+from pcbdata.cli import _checks as checks
+
 FAMILY = "d3"
 HELP = "curate the D3 real-board set (tiers D3-A/B/C) from a PCBench checkout"
 
@@ -9,12 +11,12 @@ def register(parser) -> None:
     parser.add_argument("--source", required=True, metavar="PCBENCH_DIR",
                         help="a PCBench checkout (holds PCBs/ and github_meta/)")
     parser.add_argument("--out", required=True, metavar="DIR", help="output folder")
-    parser.add_argument("--workers", type=int, default=None, metavar="N",
+    parser.add_argument("--workers", type=checks.workers, default=None, metavar="N",
                         help="KiCad worker processes (default: number of CPUs)")
     parser.add_argument("--recipe", default=None, metavar="PATH",
                         help="recipe TOML (default: the packaged "
                              "pcbdata/resources/recipes/d3.toml)")
-    parser.add_argument("--tasks-per-worker", type=int, default=20, metavar="N",
+    parser.add_argument("--tasks-per-worker", type=checks.positive, default=20, metavar="N",
                         help="recycle a KiCad worker after N boards (memory; default 20)")
     parser.add_argument("--quiet", action="store_true", help="only print the summary")
     parser.set_defaults(run=run)

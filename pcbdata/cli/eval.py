@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import os
 
+from pcbdata.cli import _checks as checks
+
 VERB = "eval"
 HELP = "score routed boards against a built board set (CP, Pot., Rout., DRV, WL, Via, Time)"
 
@@ -24,17 +26,19 @@ def register(parser) -> None:
     parser.add_argument("--reference", action="store_true",
                         help="score the set's reference boards (D3) instead of a submission")
     parser.add_argument("--out", required=True, metavar="REPORT", help="report folder (resumable)")
-    parser.add_argument("--k", type=int, default=5, help="rollouts per board (default: 5)")
-    parser.add_argument("--workers", type=int, default=default_workers(),
+    parser.add_argument("--k", type=checks.positive, default=5,
+                        help="rollouts per board (default: 5)")
+    parser.add_argument("--workers", type=checks.workers, default=default_workers(),
                         help="KiCad worker processes (default: 8 per core, at most 32: KiCad's "
                              "DRC spends most of a small board's time waiting, not computing)")
     parser.add_argument("--name", help="method name in the table (default: RUNS folder name)")
-    parser.add_argument("--timeout", type=float, default=300.0,
+    parser.add_argument("--timeout", type=checks.seconds, default=300.0,
                         help="seconds allowed per board (default: 300)")
-    parser.add_argument("--limit", type=int, metavar="N",
+    parser.add_argument("--limit", type=checks.positive, metavar="N",
                         help="score only the first N boards of the split (board-id order)")
-    parser.add_argument("--lw", type=float, default=0.002, help="potential weight per mm of WL")
-    parser.add_argument("--lv", type=float, default=0.1, help="potential weight per via")
+    parser.add_argument("--lw", type=checks.weight, default=0.002,
+                        help="potential weight per mm of WL")
+    parser.add_argument("--lv", type=checks.weight, default=0.1, help="potential weight per via")
     parser.set_defaults(run=run)
 
 

@@ -3,6 +3,8 @@ from __future__ import annotations
 
 import os
 
+from pcbdata.cli import _checks as checks
+
 VERB = "route"
 HELP = "route a board set with a baseline router (freeroute via Specctra DSN/SES, or kicad-tools)"
 
@@ -19,20 +21,25 @@ def register(parser) -> None:
     parser.add_argument("--router-cmd", metavar="CMD",
                         help="any DSN->SES command, with {dsn} and {ses} placeholders, e.g. "
                              "'java -jar freerouting.jar -de {dsn} -do {ses}'")
-    parser.add_argument("--rollouts", type=int, default=1,
-                        help="rollouts per board; freeroute cycles through engine variants, kicad-tools "
-                             "through seeds")
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+    parser.add_argument("--rollouts", type=checks.positive, default=1,
+                        help="rollouts per board; freeroute cycles through engine variants, "
+                             "kicad-tools through seeds")
+    parser.add_argument("--workers", type=checks.workers,
+                        default=min(os.cpu_count() or 1, checks.MAX_WORKERS),
                         help="parallel boards (default: CPU count)")
-    parser.add_argument("--timeout", type=float, default=120.0,
+    parser.add_argument("--timeout", type=checks.seconds, default=120.0,
                         help="seconds allowed to the router per board (default: 120)")
-    parser.add_argument("--limit", type=int, help="route only the first N boards")
+    parser.add_argument("--limit", type=checks.positive, metavar="N",
+                        help="route only the first N boards")
     parser.set_defaults(run=run)
 
 
 def run(args) -> int:
     from pcbdata.baselines.routing import route_set
+    from pcbdata.errors import UserError
 
+    if os.path.exists(args.out) and not os.path.isdir(args.out):
+        raise UserError(f"--out {args.out}: exists and is not a folder (RUNS is a folder)")
     counts = route_set(args.dir, args.config, args.split, args.out, router=args.router,
                        router_cmd=args.router_cmd, rollouts=args.rollouts, workers=args.workers,
                        router_timeout=args.timeout, limit=args.limit)

@@ -15,7 +15,16 @@ def register(parser) -> None:
                              "is the released one")
     parser.add_argument("--max-lines", type=int, default=50, metavar="N",
                         help="problems printed at most (default 50; all are counted)")
-    parser.set_defaults(run=run)
+    parser.set_defaults(run=checked_run)
+
+
+def checked_run(args) -> int:
+    """`run` once the options are in range (a negative --max-lines would hide problems)."""
+    from pcbdata.errors import UserError
+
+    if args.max_lines < 0:
+        raise UserError(f"--max-lines must be an integer >= 0, got {args.max_lines}")
+    return run(args)
 
 
 def run(args) -> int:

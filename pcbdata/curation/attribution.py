@@ -8,22 +8,34 @@ from pathlib import Path
 UNKNOWN = "NOASSERTION"
 
 
-def load_github_licences(source: str | Path, recipe) -> dict[str, dict]:
-    """Repository URL -> {"spdx_id", "name", "owner"} from the GitHub search results."""
-    folder = Path(source) / recipe.source.github_meta_dir
+def load_github_licences(source: str | Path, recipe,
+                         problems: list[str] | None = None) -> dict[str, dict]:
+    """Repository URL -> {"spdx_id", "name", "owner"} from the GitHub search results. A file
+    that cannot be read is skipped with its reason appended to `problems`."""
+    problems = [] if problems is None else problems
+    folder_name = recipe.source.github_meta_dir
+    folder = Path(source) / folder_name
     repos: dict[str, dict] = {}
     if not folder.is_dir():
+        problems.append(f"{folder_name}/: no such folder; licences come from metadata.json only")
         return repos
     for path in sorted(folder.glob("*.json")):
         try:
             data = json.loads(path.read_bytes().decode("utf-8"))
-        except (OSError, UnicodeDecodeError, json.JSONDecodeError):
+        except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:
+            problems.append(f"{folder_name}/{path.name}: skipped, not readable JSON "
+                            f"({type(exc).__name__})")
             continue
-        for item in data.get("items", []) if isinstance(data, dict) else []:
-            if not isinstance(item, dict) or not item.get("html_url"):
-                continue
+        if not isinstance(data, dict) or not isinstance(data.get("items", []), list):
+            problems.append(f"{folder_name}/{path.name}: skipped, not a search result "
+                            f"(no items list)")
+            continue
+        for item in data.get("items", []):
+            if not isinstance(item, dict) or not isinstance(item.get("html_url"), str):
+                continue  # not a repository entry (search results hold only those)
             lic = item.get("license") or {}
-            owner = (item.get("owner") or {}).get("login", "")
+            owner_entry = item.get("owner")
+            owner = owner_entry.get("login", "") if isinstance(owner_entry, dict) else ""
             repos.setdefault(item["html_url"].rstrip("/"), {
                 "spdx_id": (lic.get("spdx_id") or "") if isinstance(lic, dict) else "",
                 "name": (lic.get("name") or "") if isinstance(lic, dict) else "",

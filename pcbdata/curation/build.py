@@ -29,11 +29,12 @@ from pcbdata.curation import corpus
 from pcbdata.curation.picks import COLUMNS, Row, assign_tiers, evaluation_subsets, number_rows
 from pcbdata.curation.recipe import KeepCriteria, Recipe
 from pcbdata.errors import EngineError, UserError
-from pcbdata.fsutil import remove_stale_temps, write_atomic, write_dir_atomic
+from pcbdata.fsutil import folder_lock, remove_stale_temps, write_atomic, write_dir_atomic
 from pcbdata.hashing import sha256_bytes, sha256_text
 from pcbdata.kicad.drc_report import DrcReport
-from pcbdata.kicad.pool import KicadError, KicadPool, Outcome
+from pcbdata.kicad.pool import KicadError, KicadPool, Outcome, is_limit_error
 from pcbdata.manifest import FORMAT, d3_facts, merge_configs, read_manifest, write_manifest
+from pcbdata.sexpr_text import cut_problem
 from pcbdata.textio import canonical_json, csv_text
 from pcbdata.tree import (
     ATTRIBUTION_CSV,
@@ -54,7 +55,7 @@ from pcbdata.tree import (
 STATE_DIR = D3_STATE_DIR
 BOARD_FILES = (BOARD_FILE, PROJECT_FILE, REFERENCE_FILE)
 REPORT_COLUMNS = ["name", "fate", "reason", "errors", "error_types", "unconnected",
-                  "board_identical", "board_id", "source_board_sha256", "seconds"]
+                  "board_identical", "board_id", "source_board_sha256", "seconds", "notes"]
 ATTRIBUTION_COLUMNS = ["board_id", "name", "tier", "source_repository", "author", "licence",
                        "licence_from", "redistributable", "collection_licence", "licence_text"]
 TASK = "pcbdata.kicad.upgrade:process_board"
@@ -163,10 +164,33 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
     """Builds the D3 set of `source` into `out`; returns the summary (fate and tier counts).
 
     `tasks_per_worker`: KiCad keeps memory between boards (tens of MB each), so workers are
-    recycled after this many boards; it does not change the output.
+    recycled after this many boards; it does not change the output. The folder is locked
+    for the build (`fsutil.folder_lock`): a second build into it waits.
     """
-    log = log or _stderr
-    source, out = Path(source), Path(out)
+    with folder_lock(out, "built"):  # a second build into the folder waits for this one
+        return _build(Path(source), Path(out), recipe, workers, log or _stderr, pool,
+                      tasks_per_worker)
+
+
+def limit_state_key(key: str, pool) -> str:
+    """State key of a board that hit the pool's time or memory limit: the same board under
+    the same limits is not run again by a resumed build (a raised limit runs it again)."""
+    limits = f"{key}\0{float(pool.task_timeout):g}\0{getattr(pool, 'memory_limit_mb', 0)}"
+    return sha256_text(limits)[:32]
+
+
+def _cut_board(board: corpus.SourceBoard) -> dict | None:
+    """The load-failure state of a truncated board file, decided before KiCad sees it: KiCad
+    can spin on such a file until the time limit."""
+    problem = cut_problem(board.board_path.read_bytes())
+    if problem is None:
+        return None
+    return {"fate": corpus.LOAD_FAILURE, "reason": f"load: {problem}", "errors": 0,
+            "error_types": {}, "unconnected": 0, "seconds": 0.0}
+
+
+def _build(source: Path, out: Path, recipe: Recipe, workers: int, log: Log,
+           pool: KicadPool | None, tasks_per_worker: int) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     remove_stale_temps(out)
     started = time.perf_counter()
@@ -176,6 +200,9 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
         raise UserError(f"{source}: no board folders under {recipe.source.boards_dir}/")
     log(f"d3: {len(boards)} board folders in {source}; recipe {recipe.version} "
         f"({recipe.sha256[:12]})")
+    for b in boards:  # e.g. an unusable metadata.json: the board goes on, the note is kept
+        for note in b.notes:
+            log(f"d3: warning: {b.name}: {note}")
     _retract_manifest(out)
 
     own_pool = pool is None
@@ -196,6 +223,8 @@ def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
 
     summary = _finish(source, out, recipe, boards, states, store, kicad_version)
     summary["wall_seconds"] = round(time.perf_counter() - started, 1)
+    for warning in summary["warnings"]:
+        log(f"d3: warning: {warning}")
     fates = summary["fates"]
     log("d3: fates: " + ", ".join(f"{k} {fates.get(k, 0)}" for k in corpus.FATES))
     log("d3: tiers: " + ", ".join(f"{c} {n['full']} (test {n['test']})"
@@ -214,7 +243,7 @@ def _process(boards: list[corpus.SourceBoard], recipe: Recipe, kicad_version: st
                               "error_types": {}, "unconnected": 0, "seconds": 0.0}
             continue
         key = state_key(b, recipe, kicad_version)
-        cached = store.get(key)
+        cached = store.get(key) or store.get(limit_state_key(key, pool)) or _cut_board(b)
         if cached is not None:
             states[b.name] = cached
         else:
@@ -227,8 +256,10 @@ def _process(boards: list[corpus.SourceBoard], recipe: Recipe, kicad_version: st
     for done, outcome in enumerate(pool.map(TASK, args), start=1):
         b, key = todo[outcome.index]
         state, files = _state(outcome, recipe.keep, key, b.name)
-        if state["fate"] != corpus.ENGINE_FAILURE:  # a crash or time limit is retried
-            store.put(key, state, files)              # by the next run
+        if state["fate"] != corpus.ENGINE_FAILURE:
+            store.put(key, state, files)
+        elif is_limit_error(outcome.error):  # a crash is retried by the next run
+            store.put(limit_state_key(key, pool), state, None)
         states[b.name] = state
         reason = f" ({state['reason']})" if state["reason"] else ""
         log(f"[{done}/{len(todo)}] {b.name}: {state['fate']}{reason} {outcome.seconds:.1f} s")
@@ -281,6 +312,7 @@ class _Curated:
     notes: list[dict]
     attributions: dict[str, dict]
     snapshot: str
+    warnings: list[str]  # corpus files skipped (unreadable GitHub metadata, ...)
 
 
 def _curate(source: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
@@ -293,11 +325,12 @@ def _curate(source: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
                         for b in kept])
     tiers = assign_tiers(rows, recipe.tiers.a_size, recipe.tiers.b_max_pads)
     subsets, notes = evaluation_subsets(tiers, recipe)
-    github = attr.load_github_licences(source, recipe)
+    warnings: list[str] = []
+    github = attr.load_github_licences(source, recipe, warnings)
     attributions = {r.name: attr.attribute(r.name, by_name[r.name].metadata, github, recipe)
                     for r in rows}
     return _Curated(boards, by_name, states, rows, tiers, subsets, notes, attributions,
-                    corpus.snapshot_sha256(boards))
+                    corpus.snapshot_sha256(boards), warnings)
 
 
 def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
@@ -378,10 +411,11 @@ def _write_tables(source: Path, out: Path, recipe: Recipe, cur: _Curated,
     _write_if_changed(out / CURATION_REPORT_JSON, canonical_json({
         "recipe": {"version": recipe.version, "sha256": recipe.sha256},
         "kicad_version": kicad_version, "source_snapshot_sha256": cur.snapshot,
-        "fates": fates, "tiers": tier_counts, "overrides": cur.notes, "boards": report}))
+        "fates": fates, "tiers": tier_counts, "overrides": cur.notes, "warnings": cur.warnings,
+        "boards": report}))
     _write_attribution(source, out, recipe, cur)
     return {"fates": fates, "tiers": tier_counts, "overrides": cur.notes,
-            "boards": len(cur.boards)}
+            "boards": len(cur.boards), "warnings": cur.warnings}
 
 
 def _report_rows(cur: _Curated) -> list[dict]:
@@ -396,7 +430,8 @@ def _report_rows(cur: _Curated) -> list[dict]:
             "unconnected": s.get("unconnected", 0),
             "board_identical": s.get("compat", {}).get("board_identical", ""),
             "board_id": board_ids.get(b.name, ""), "source_board_sha256": b.board_sha256,
-            "uuids_fixed": s.get("uuids_fixed", 0), "seconds": s.get("seconds", 0.0)})
+            "uuids_fixed": s.get("uuids_fixed", 0), "seconds": s.get("seconds", 0.0),
+            "notes": "; ".join(b.notes)})
     return report
 
 

@@ -6,13 +6,14 @@ moves files and plain data, and computes the metrics with `pcbdata.evaluator.met
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Iterable, Iterator
 
-from pcbdata.kicad.pool import KicadPool
 from pcbdata.errors import UserError
 from pcbdata.evaluator.integrity import rollout_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
+from pcbdata.kicad.pool import KicadPool
+from pcbdata.sexpr_text import cut_problem
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
 #: 2.0.0: copper transplanted onto the instance's board; evaluation and strict counts.
@@ -64,7 +65,7 @@ def precheck(path: str | Path) -> str | None:
         return "not a .kicad_pcb file (binary data)"
     if not head.lstrip().startswith(b"(kicad_pcb"):
         return "not a .kicad_pcb file (does not start with '(kicad_pcb')"
-    return None
+    return cut_problem(path.read_bytes())  # KiCad's parser can hang on a cut file
 
 
 #: The metric fields of a record; a rollout that is not scored has them empty (CP 0, Rout. 0).
@@ -107,7 +108,7 @@ class Evaluator:
         self.pool = pool or KicadPool(workers=workers, task_timeout=task_timeout)
         self._bare: dict[str, dict] = {}
 
-    def __enter__(self) -> "Evaluator":
+    def __enter__(self) -> Evaluator:
         return self
 
     def __exit__(self, *exc) -> None:

@@ -20,7 +20,8 @@ from pathlib import Path
 from pcbdata.errors import UserError
 from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, instance_hash, sha256_file
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, pick_best
-from pcbdata.fsutil import write_atomic
+from pcbdata.fsutil import folder_lock, write_atomic
+from pcbdata.kicad.pool import is_limit_error, memory_limit_from_env
 
 TIME_KEYS = ("time_s", "time", "seconds", "wall_time_s")
 ROLLOUT_COLUMNS = ["board_id", "rollout", "index", "status", "reason", "cp", "pot", "rout", "drv",
@@ -51,19 +52,55 @@ def list_instances(root: Path, config: str, split: str) -> list[tuple[str, Path]
     return boards
 
 
+# A sidecar is a few fields; a bigger one is not read (it would be read whole into memory).
+MAX_SIDECAR_BYTES = 1 << 20
+# A wall time beyond this (about 11.6 days per rollout) is a unit mistake or garbage.
+MAX_TIME_S = 1e6
+
+
 def rollout_time(board_file: Path) -> float | None:
+    """The method's wall time of a rollout from its sidecar, or None (none, or not valid)."""
+    return read_rollout_time(board_file)[0]
+
+
+def read_rollout_time(board_file: Path) -> tuple[float | None, str]:
+    """(time, problem) of a rollout's `<rollout>.json`: the time is None when there is no
+    sidecar or no time key, and also when the sidecar or its time is not valid, which
+    `problem` then says (a valid time: a number from 0 to MAX_TIME_S, not a boolean)."""
     sidecar = board_file.with_suffix(".json")
     if not sidecar.is_file():
-        return None
+        return None, ""
+    data, problem = _read_sidecar(sidecar)
+    if problem:
+        return None, problem
+    if not isinstance(data, dict):
+        return None, f"{sidecar.name}: not a JSON object"
+    key = next((k for k in TIME_KEYS if data.get(k) is not None), None)  # null: no time
+    if key is None:
+        return None, ""
+    value = data[key]
+    valid = (isinstance(value, (int, float)) and not isinstance(value, bool)
+             and math.isfinite(value) and 0 <= value <= MAX_TIME_S)
+    if not valid:
+        shown = repr(value)[:40] if isinstance(value, (bool, int, float, str)) else type(value).__name__
+        return None, (f"{sidecar.name}: invalid {key} {shown} (expected a number of seconds "
+                      f"from 0 to {MAX_TIME_S:g})")
+    return float(value), ""
+
+
+def _read_sidecar(sidecar: Path) -> tuple[object, str]:
     try:
-        data = json.loads(sidecar.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return None
-    for key in TIME_KEYS:
-        value = data.get(key) if isinstance(data, dict) else None
-        if isinstance(value, (int, float)) and math.isfinite(value):
-            return float(value)
-    return None
+        if sidecar.stat().st_size > MAX_SIDECAR_BYTES:
+            return None, f"{sidecar.name}: larger than {MAX_SIDECAR_BYTES} bytes, not read"
+        return json.loads(sidecar.read_bytes().decode("utf-8")), ""
+    except OSError as exc:
+        return None, f"{sidecar.name}: unreadable ({exc.strerror})"
+    except UnicodeDecodeError:
+        return None, f"{sidecar.name}: not UTF-8 text"
+    except ValueError as exc:
+        return None, f"{sidecar.name}: not valid JSON ({str(exc).splitlines()[0][:80]})"
+    except RecursionError:
+        return None, f"{sidecar.name}: JSON nested too deeply to read"
 
 
 def list_rollouts(runs: Path, board_id: str, k: int) -> list[tuple[str, Path]]:
@@ -74,9 +111,36 @@ def list_rollouts(runs: Path, board_id: str, k: int) -> list[tuple[str, Path]]:
     return [(stem, folder / f"{stem}.kicad_pcb") for stem in sorted(stems, key=natural_key)[:k]]
 
 
+def runs_warnings(runs: Path, split_ids: list[str], scored_ids: list[str], k: int) -> dict:
+    """What in RUNS is not scored, by kind: entries that are not a board of the split, board
+    entries that are not folders, files that are not rollouts, and rollouts beyond the first
+    k per board (the @k protocol). Boards of the split left out by `limit` are not listed."""
+    known = set(split_ids)
+    out = {"not_in_split": sorted(p.name for p in runs.iterdir() if p.name not in known),
+           "not_a_folder": [], "not_a_rollout": [], "beyond_k": []}
+    for board_id in scored_ids:
+        folder = runs / board_id
+        if not folder.is_dir():
+            if folder.exists() or folder.is_symlink():
+                out["not_a_folder"].append(board_id)
+            continue
+        out["not_a_rollout"] += sorted(f"{board_id}/{p.name}" for p in folder.iterdir()
+                                       if p.suffix not in (".kicad_pcb", ".json"))
+        stems = {p.stem for p in folder.glob("*.kicad_pcb")} | {p.stem for p in folder.glob("*.json")}
+        out["beyond_k"] += [f"{board_id}/{stem}" for stem in sorted(stems, key=natural_key)[k:]]
+    return out
+
+
 def cache_key(instance_key: str, routed_hash: str, weights: Weights) -> str:
     text = json.dumps([EVALUATOR_VERSION, instance_key, routed_hash, weights.as_dict()],
                       sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def limit_cache_key(key: str, limits: tuple[float, int]) -> str:
+    """Cache key of a rollout that hit the engine's time or memory limit (seconds, MiB): the
+    same file is not run again under the same limits, and is under other ones."""
+    text = json.dumps([key, "limits", float(limits[0]), int(limits[1])])
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -175,88 +239,184 @@ def _csv(rows: list[dict], columns: list[str]) -> str:
     return out.getvalue()
 
 
+def _check_arguments(k, workers, weights: Weights, task_timeout, limit, name) -> None:
+    """The ranges of evaluate_set's arguments (the CLI checks them too, before this)."""
+    def integer(value) -> bool:
+        return isinstance(value, int) and not isinstance(value, bool)
+
+    if not integer(k) or k < 1:
+        raise UserError(f"--k must be an integer >= 1, got {k!r}")
+    if not integer(workers) or workers < 1:
+        raise UserError(f"--workers must be an integer >= 1, got {workers!r}")
+    if limit is not None and (not integer(limit) or limit < 1):
+        raise UserError(f"--limit must be an integer >= 1 (or absent: every board), got {limit!r}")
+    if isinstance(task_timeout, bool) or not isinstance(task_timeout, (int, float)) \
+            or not math.isfinite(task_timeout) or task_timeout <= 0:
+        raise UserError(f"--timeout must be a finite number of seconds > 0, got {task_timeout!r}")
+    for key, value in weights.as_dict().items():
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not math.isfinite(value) or value < 0:
+            raise UserError(f"weight {key} must be a finite number >= 0, got {value!r}")
+    if name is not None and (not name.strip() or any(c in name for c in "|\r\n")):
+        raise UserError(f"--name {name!r}: must be non-empty, without '|' or line breaks "
+                        f"(it is a cell of the markdown table)")
+
+
+_SHOWN_WARNINGS = 10
+
+
+def _print_warnings(warnings: dict, runs: Path) -> None:
+    """One stderr line per kind of RUNS entry that is not scored (all of them are recorded
+    in summary.json under `runs_warnings`)."""
+    what = {"not_in_split": "entries that are not boards of this split, ignored",
+            "not_a_folder": "board entries that are not folders, scored as missing",
+            "not_a_rollout": "files that are not rollouts (.kicad_pcb, .json), ignored",
+            "beyond_k": "rollouts beyond the first k, not scored",
+            "invalid_times": "rollout times not valid, not counted"}
+    for kind, items in warnings.items():
+        if not items:
+            continue
+        names = [f"{i['board_id']}/{i['rollout']}: {i['reason']}" if isinstance(i, dict) else i
+                 for i in items]
+        shown = "; ".join(names[:_SHOWN_WARNINGS])
+        more = f"; ... {len(names) - _SHOWN_WARNINGS} more" if len(names) > _SHOWN_WARNINGS else ""
+        print(f"pcbdata eval: warning: {runs}: {what[kind]} ({len(names)}): {shown}{more}; "
+              f"summary.json lists them under runs_warnings.{kind}", file=sys.stderr)
+
+
+Plan = list[tuple[str, str, int, Path, Path]]  # (board_id, rollout, index, instance, board)
+
+
 def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                  runs: str | Path | None = None, k: int = 5, reference: bool = False,
                  workers: int = 1, weights: Weights = DEFAULT_WEIGHTS, name: str | None = None,
                  task_timeout: float = 300.0, progress: bool = True,
                  limit: int | None = None) -> dict:
     """Scores a submission (or the reference boards) on one config/split; writes REPORT files
-    and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl`. `limit` scores
-    only the first N boards of the split (in board-id order)."""
+    and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl` (time and
+    memory limits hit too, under the same limits). `limit` scores only the first N boards of
+    the split (in board-id order). A second call on the same `out` waits for the first."""
     root, out = Path(root), Path(out)
-    if k < 1:
-        raise UserError("--k must be at least 1")
+    _check_arguments(k, workers, weights, task_timeout, limit, name)
     if reference == (runs is not None):
         raise UserError("give either RUNS (--runs) or --reference")
-    instances = list_instances(root, config, split)[: limit or None]
-    plan = []  # (board_id, rollout name, index, instance dir, routed path)
+    if not reference and not Path(runs).is_dir():
+        raise UserError(f"{runs}: no such RUNS directory")
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out}: exists and is not a folder (REPORT is a folder)")
+    every = list_instances(root, config, split)
+    instances = every[:limit] if limit is not None else every
+    plan = _plan(instances, None if reference else Path(runs), k)
+    warnings = {} if reference else runs_warnings(
+        Path(runs), [b for b, _ in every], [b for b, _ in instances], k)
+    out.mkdir(parents=True, exist_ok=True)
+    with folder_lock(out, "written"):  # a second eval into REPORT waits: reports never mix
+        records = _score_plan(plan, instances, out, weights, workers, task_timeout, progress)
+        rollout_rows = _rollout_rows(plan, records, reference, warnings)
+        if warnings and progress:
+            _print_warnings(warnings, Path(runs))
+        by_board: dict[str, list[dict]] = {}
+        for row in rollout_rows:
+            by_board.setdefault(row["board_id"], []).append(row)
+        board_rows = [board_row(board_id, by_board[board_id]) for board_id, _ in instances]
+        summary = summarize(board_rows, rollout_rows, 1 if reference else k)
+        summary.update(config=config, split=split, evaluator_version=EVALUATOR_VERSION,
+                       weights=weights.as_dict(), reference=reference)
+        if warnings:
+            summary["runs_warnings"] = warnings
+        label = name or ("Reference" if reference else Path(runs).name)
+        table = markdown_table([(label, summary)])
+        _write_report(out, label, summary, table, rollout_rows, board_rows)
+        return {"summary": summary, "table": table, "rollouts": rollout_rows,
+                "boards": board_rows}
+
+
+def _plan(instances: list[tuple[str, Path]], runs: Path | None, k: int) -> Plan:
+    """Every rollout to score; `runs` None scores each instance's reference board."""
+    plan = []
     for board_id, directory in instances:
-        if reference:
+        if runs is None:
             ref = directory / "reference.kicad_pcb"
             if not ref.is_file():
                 raise UserError(f"{directory}: no reference.kicad_pcb (only D3 configs have "
                                 f"reference boards)")
             rollouts = [("reference", ref)]
         else:
-            rollouts = list_rollouts(Path(runs), board_id, k)
+            rollouts = list_rollouts(runs, board_id, k)
             if not rollouts:
-                rollouts = [("missing", Path(runs) / board_id / "missing.kicad_pcb")]
+                rollouts = [("missing", runs / board_id / "missing.kicad_pcb")]
         for index, (rollout, path) in enumerate(rollouts):
             plan.append((board_id, rollout, index, directory, path))
-    if not reference and not Path(runs).is_dir():
-        raise UserError(f"{runs}: no such RUNS directory")
-    out.mkdir(parents=True, exist_ok=True)
+    return plan
+
+
+def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weights: Weights,
+                workers: int, task_timeout: float, progress: bool) -> list[dict]:
+    """The record of every rollout of `plan`: from the cache, else scored (and cached)."""
     cache_path = out / CACHE_NAME
     cache = load_cache(cache_path)
+    limits = (task_timeout, memory_limit_from_env())
     inst_keys = {d: instance_hash(d) for _, d in instances}
     records: list[dict | None] = [None] * len(plan)
     keys: list[str] = []
     todo = []
-    for i, (board_id, rollout, index, directory, path) in enumerate(plan):
+    for i, (_, _, _, directory, path) in enumerate(plan):
         routed_hash = sha256_file(path) if path.is_file() else "missing"
         key = cache_key(inst_keys[directory], routed_hash, weights)
         keys.append(key)
-        if key in cache:
-            records[i] = dict(cache[key])
+        cached = cache.get(key) or cache.get(limit_cache_key(key, limits))
+        if cached is not None:
+            records[i] = dict(cached)
         else:
             todo.append(i)
     if progress:
         print(f"pcbdata eval: {len(plan)} rollouts on {len(instances)} boards; "
               f"{len(plan) - len(todo)} cached, {len(todo)} to score", file=sys.stderr)
     if todo:
-        with Evaluator(workers=workers, weights=weights, task_timeout=task_timeout) as evaluator, \
+        with Evaluator(workers=workers, weights=weights,
+                       task_timeout=task_timeout) as evaluator, \
                 open(cache_path, "a", encoding="utf-8") as cache_file:
             pairs = [(plan[i][3], plan[i][4]) for i in todo]
-            done = 0
-            for j, record in evaluator.score_many(pairs):
+            for done, (j, record) in enumerate(evaluator.score_many(pairs), start=1):
                 i = todo[j]
-                done += 1
                 record["sha256"] = sha256_file(plan[i][4]) if plan[i][4].is_file() else ""
                 records[i] = record
-                if record["reason"].startswith("engine failure"):
-                    continue  # a crash or time limit may not recur: score it again next run
-                cache_file.write(json.dumps({"key": keys[i], "record": record}, sort_keys=True) + "\n")
-                cache_file.flush()
+                _cache_record(cache_file, keys[i], record, limits)
                 if progress and (done % 50 == 0 or done == len(todo)):
                     print(f"  scored {done}/{len(todo)}", file=sys.stderr)
-    rollout_rows = []
-    for (board_id, rollout, index, directory, path), record in zip(plan, records):
-        row = {**record, "board_id": board_id, "rollout": rollout, "index": index,
-               "time": rollout_time(path) if not reference else None}
-        rollout_rows.append(row)
-    by_board: dict[str, list[dict]] = {}
-    for row in rollout_rows:
-        by_board.setdefault(row["board_id"], []).append(row)
-    board_rows = [board_row(board_id, by_board[board_id]) for board_id, _ in instances]
-    summary = summarize(board_rows, rollout_rows, 1 if reference else k)
-    summary.update(config=config, split=split, evaluator_version=EVALUATOR_VERSION,
-                   weights=weights.as_dict(), reference=reference)
-    label = name or ("Reference" if reference else Path(runs).name)
-    table = markdown_table([(label, summary)])
+    return [r for r in records if r is not None]
+
+
+def _cache_record(cache_file, key: str, record: dict, limits: tuple[float, int]) -> None:
+    if record["reason"].startswith("engine failure"):
+        if not is_limit_error(record["reason"].removeprefix("engine failure: ")):
+            return  # a crash may not recur: score it again next run
+        key = limit_cache_key(key, limits)  # a time-out holds under its limits
+    cache_file.write(json.dumps({"key": key, "record": record}, sort_keys=True) + "\n")
+    cache_file.flush()
+
+
+def _rollout_rows(plan: Plan, records: list[dict], reference: bool, warnings: dict) -> list[dict]:
+    """Report rows: records with their names and method times; an unusable time becomes a
+    warning (`warnings["invalid_times"]`) and no time."""
+    rows, bad_times = [], []
+    for (board_id, rollout, index, _, path), record in zip(plan, records, strict=True):
+        time_s, problem = read_rollout_time(path) if not reference else (None, "")
+        if problem:
+            bad_times.append({"board_id": board_id, "rollout": rollout, "reason": problem})
+        rows.append({**record, "board_id": board_id, "rollout": rollout, "index": index,
+                     "time": time_s})
+    if not reference:
+        warnings["invalid_times"] = bad_times
+    return rows
+
+
+def _write_report(out: Path, label: str, summary: dict, table: str, rollout_rows: list[dict],
+                  board_rows: list[dict]) -> None:
     write_atomic(out / "per_rollout.csv", _csv(rollout_rows, ROLLOUT_COLUMNS))
     write_atomic(out / "per_board.csv", _csv(board_rows, BOARD_COLUMNS))
     write_atomic(out / "summary.json", json.dumps(summary, indent=1, sort_keys=True) + "\n")
-    header = (f"# {label} on {config} / {split}\n\n@k = {summary['k']}, {summary['n_boards']} boards, "
-              f"{summary['n_rollouts']} rollouts, evaluator {EVALUATOR_VERSION}\n\n")
+    header = (f"# {label} on {summary['config']} / {summary['split']}\n\n@k = {summary['k']}, "
+              f"{summary['n_boards']} boards, {summary['n_rollouts']} rollouts, "
+              f"evaluator {EVALUATOR_VERSION}\n\n")
     write_atomic(out / "summary.md", header + table)
-    return {"summary": summary, "table": table, "rollouts": rollout_rows, "boards": board_rows}

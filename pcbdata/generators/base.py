@@ -13,6 +13,18 @@ from typing import Any, Protocol, runtime_checkable
 from pcbdata.board import Board, nm_to_mm
 from pcbdata.tree import synthetic_board_id
 
+# Physical limits of generated boards, checked with the parameters (before anything is
+# written). KiCad stores coordinates as signed 32-bit nanometres, so nothing can lie beyond
+# +-2147.48 mm; boards and every length are kept to 1 m, well inside that range (and below the
+# largest page KiCad offers, 1219 mm). Copper features, clearances and holes are at least
+# 10 micrometres: finer than any PCB process, and far above the 1 nm resolution of the files.
+MAX_LENGTH_MM = 1000.0
+MIN_FEATURE_MM = 0.01
+# KiCad 9 board-setup minimums that the written projects keep (the DRC of a generated board
+# reports them; measured): annular ring of a pad or via, and hole to other-net copper.
+KICAD_MIN_ANNULAR_MM = 0.1
+KICAD_HOLE_CLEARANCE_MM = 0.25
+
 
 def board_id(index: int) -> str:
     return synthetic_board_id(index)

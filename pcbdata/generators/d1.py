@@ -6,14 +6,17 @@ from dataclasses import dataclass, field
 from pcbdata.board import Board, Pad, Rules, Track, mm_to_nm
 from pcbdata.connector import connector_arrays, npz_bytes
 from pcbdata.errors import GenerationError, UserError
-from pcbdata.generators.base import Instance, board_id
-from pcbdata.rng import Stream
+from pcbdata.generators.base import MIN_FEATURE_MM, Instance, board_id
+from pcbdata.rng import Stream, check_seed
 
 PLACEMENTS = ("uniform", "random-walk")
 SIDE_NM = 100 * 1_000_000  # the lattice spans 100 mm whatever the grid size
 VIA_DIAMETER_NM = mm_to_nm(0.6)
 VIA_DRILL_NM = mm_to_nm(0.3)
 _MAX_WALK_REDRAWS = 1000
+# Pads, clearance and track width are half the pitch 100/G mm: the finest grid keeps them at
+# the minimum copper feature (G = 5000: pitch 0.02 mm, pads 0.01 mm; checked in KiCad).
+MAX_GRID = int(round(100 / (2 * MIN_FEATURE_MM)))
 
 
 @dataclass(frozen=True)
@@ -23,12 +26,16 @@ class D1Params:
     n_nets: int = 5
 
     def __post_init__(self) -> None:
-        if not isinstance(self.grid, int) or self.grid < 2:
+        if isinstance(self.grid, bool) or not isinstance(self.grid, int) or self.grid < 2:
             raise UserError(f"D1 grid size must be an integer >= 2, got {self.grid!r}")
+        if self.grid > MAX_GRID:
+            raise UserError(f"D1 grid size must be at most {MAX_GRID}, got {self.grid}: the "
+                            f"pads and clearance (half the pitch, 100/G mm) would be smaller "
+                            f"than {MIN_FEATURE_MM} mm")
         if self.placement not in PLACEMENTS:
             raise UserError(f"unknown D1 placement {self.placement!r}; choose one of "
                             f"{', '.join(PLACEMENTS)}")
-        if self.n_nets < 1:
+        if isinstance(self.n_nets, bool) or not isinstance(self.n_nets, int) or self.n_nets < 1:
             raise UserError(f"D1 needs at least one net, got n_nets={self.n_nets}")
         if 2 * self.n_nets > self.grid * self.grid:
             raise UserError(f"D1 grid {self.grid} has {self.grid ** 2} cells, too few for "
@@ -83,6 +90,7 @@ class D1Generator:
         return round((4 * i + 3) * g / 4), round((4 * j + 3) * g / 4)
 
     def generate(self, seed: int, split: str, index: int) -> GridInstance:
+        check_seed(seed)
         stream = Stream(seed, "d1", self.params.grid, split, index)
         if self.params.placement == "uniform":
             cells, walks = self._uniform_cells(stream), None

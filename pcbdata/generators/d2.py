@@ -6,14 +6,29 @@ from dataclasses import asdict, dataclass, field, fields
 
 from pcbdata.board import Board, CopperLayer, Pad, PadKind, Rules, mm_to_nm
 from pcbdata.errors import GenerationError, UserError
-from pcbdata.generators.base import Instance, board_id
-from pcbdata.rng import Stream
+from pcbdata.generators.base import (
+    KICAD_HOLE_CLEARANCE_MM,
+    KICAD_MIN_ANNULAR_MM,
+    MAX_LENGTH_MM,
+    MIN_FEATURE_MM,
+    Instance,
+    board_id,
+)
+from pcbdata.rng import Stream, check_seed
 
 _ATTEMPTS_PER_PAD = 500
 _PLACEMENT_RESTARTS = 10
 # Random sequential placement saturates near 55 % of the hexagonal packing density; asking
 # for more than this share of the hexagonal bound is rejected up front instead of retried.
 _FILL_LIMIT = 0.5
+# Lengths that are copper features, holes, clearances or the placement lattice.
+_FEATURES = ("pad_size_mm", "drill_mm", "lattice_mm", "min_pad_spacing_mm", "clearance_mm",
+             "track_width_mm", "via_diameter_mm", "via_drill_mm")
+
+
+def _short(value: float, needed: float) -> bool:
+    """`value` < `needed`, ignoring float noise below a nanometre (0.85 - 0.8 is 0.05)."""
+    return value < needed - 1e-7
 
 
 @dataclass(frozen=True)
@@ -61,11 +76,31 @@ class D2Params:
             raise UserError("invalid D2 parameters: " + "; ".join(problems))
 
     def _problems(self) -> list[str]:
+        """Why these parameters cannot give boards that pass their KiCad check (empty: they
+        can). Stages: finite numbers, then each value's own range, then how they combine."""
+        return (self._non_finite() or self._ranges() or self._lengths()
+                or self._combinations() or self._placement())
+
+    def _numbers(self):
+        """(name, value) of every number, list items and table values included."""
+        for f in fields(self):
+            value = getattr(self, f.name)
+            items = value.values() if isinstance(value, dict) else (
+                value if isinstance(value, tuple) else [value])
+            for item in items:
+                yield f.name, item
+
+    def _non_finite(self) -> list[str]:
+        return [f"{name} must be finite, got {value}" for name, value in self._numbers()
+                if isinstance(value, float) and not math.isfinite(value)]
+
+    def _ranges(self) -> list[str]:
         out = []
         for name in ("width_mm", "height_mm"):
             low, high = getattr(self, name)
-            if not 0 < low <= high:
-                out.append(f"{name} must be a range [low, high] with 0 < low <= high, "
+            if not 0 < low <= high <= MAX_LENGTH_MM:
+                out.append(f"{name} must be a range [low, high] with 0 < low <= high <= "
+                           f"{MAX_LENGTH_MM:g} (KiCad holds coordinates up to about 2147 mm), "
                            f"got {[low, high]}")
         if not self.net_counts or min(self.net_counts) < 1:
             out.append(f"net_counts must list net counts >= 1, got {list(self.net_counts)}")
@@ -77,39 +112,91 @@ class D2Params:
         if self.pads_per_net and abs(math.fsum(self.pads_per_net.values()) - 1) > 1e-9:
             total = math.fsum(self.pads_per_net.values())
             out.append(f"pads_per_net probabilities must sum to 1, got {total:g}")
-        for name in ("pad_size_mm", "drill_mm", "lattice_mm", "min_pad_spacing_mm",
-                     "track_width_mm", "via_diameter_mm", "via_drill_mm"):
-            if getattr(self, name) <= 0:
-                out.append(f"{name} must be > 0, got {getattr(self, name)}")
-        for name in ("clearance_mm", "edge_clearance_mm"):
-            if getattr(self, name) < 0:
-                out.append(f"{name} must be >= 0, got {getattr(self, name)}")
         if not 0 <= self.through_hole_fraction <= 1:
             out.append(f"through_hole_fraction must be in [0, 1], got {self.through_hole_fraction}")
         if not 0 <= self.roundrect_ratio <= 0.5:
             out.append(f"roundrect_ratio must be in [0, 0.5], got {self.roundrect_ratio}")
         if not 0 < self.placement_fraction <= 1:
             out.append(f"placement_fraction must be in (0, 1], got {self.placement_fraction}")
+        return out
+
+    def _lengths(self) -> list[str]:
+        """Every length within what KiCad holds; features and clearances not below the
+        finest a board can be made with (the edge clearance may be 0)."""
+        out = []
+        for name in _FEATURES + ("edge_clearance_mm",):
+            value = getattr(self, name)
+            low = 0.0 if name == "edge_clearance_mm" else MIN_FEATURE_MM
+            if not low <= value <= MAX_LENGTH_MM:
+                out.append(f"{name} must be from {low:g} to {MAX_LENGTH_MM:g} mm, got {value}")
+        return out
+
+    def _combinations(self) -> list[str]:
+        out = []
         if self.drill_mm >= self.pad_size_mm:
             out.append("drill_mm must be smaller than pad_size_mm")
         if self.via_drill_mm >= self.via_diameter_mm:
             out.append("via_drill_mm must be smaller than via_diameter_mm")
-        if self.min_pad_spacing_mm - self.pad_size_mm < self.clearance_mm:
-            out.append(f"pads {self.min_pad_spacing_mm} mm apart leave "
-                       f"{self.min_pad_spacing_mm - self.pad_size_mm:g} mm between pads, less than "
-                       f"the clearance {self.clearance_mm}")
         if out:
             return out
+        if _short(self.via_diameter_mm - self.via_drill_mm, 2 * KICAD_MIN_ANNULAR_MM):
+            out.append(f"vias {self.via_diameter_mm}/{self.via_drill_mm} mm leave an annular "
+                       f"ring under KiCad's minimum {KICAD_MIN_ANNULAR_MM} mm")
+        if self.through_hole_fraction > 0:
+            out += self._hole_problems()
+        gap = self.min_pad_spacing_mm - 2 * self._reach(smd=self.through_hole_fraction < 1)
+        if _short(gap, self.clearance_mm):
+            out.append(f"pads {self.min_pad_spacing_mm} mm apart leave {gap:.4g} mm between "
+                       f"pads at worst (corner to corner), less than the clearance "
+                       f"{self.clearance_mm}")
+        return out
+
+    def _hole_problems(self) -> list[str]:
+        out = []
+        if _short(self.pad_size_mm - self.drill_mm, 2 * KICAD_MIN_ANNULAR_MM):
+            out.append(f"through-hole pads {self.pad_size_mm}/{self.drill_mm} mm leave an annular "
+                       f"ring under KiCad's minimum {KICAD_MIN_ANNULAR_MM} mm")
+        smallest = min(0.3, self.via_drill_mm)  # the project's minimum hole (kicad_writer)
+        if _short(self.drill_mm, smallest):
+            out.append(f"drill_mm {self.drill_mm} is below the projects' minimum hole size "
+                       f"{smallest:g} mm (the smaller of 0.3 mm and via_drill_mm)")
+        hole_gap = self.min_pad_spacing_mm - self.drill_mm / 2 - self._reach(
+            smd=self.through_hole_fraction < 1)
+        if _short(hole_gap, KICAD_HOLE_CLEARANCE_MM):
+            out.append(f"pads {self.min_pad_spacing_mm} mm apart leave {hole_gap:.4g} mm from a "
+                       f"hole to the next pad, under KiCad's hole clearance "
+                       f"{KICAD_HOLE_CLEARANCE_MM} mm")
+        return out
+
+    def _reach(self, smd: bool) -> float:
+        """How far a pad's copper reaches from its centre towards a neighbour, at worst: the
+        pad radius, or for a rounded square along its diagonal."""
+        radius = self.pad_size_mm / 2
+        if not smd:
+            return radius
+        corner = self.roundrect_ratio * self.pad_size_mm
+        return max(radius, self.pad_size_mm / math.sqrt(2) - (math.sqrt(2) - 1) * corner)
+
+    def _placement(self) -> list[str]:
+        out = []
         margin = (1 - self.placement_fraction) / 2 * min(self.width_mm[0], self.height_mm[0])
         if margin - self.pad_size_mm / 2 < self.edge_clearance_mm:
             out.append(f"pads at the edge of the central {self.placement_fraction:.0%} would be "
                        f"closer than {self.edge_clearance_mm} mm to the board edge")
-        capacity = self.placement_capacity()
+        capacity = min(self.placement_capacity(), self.lattice_positions())
         if self.max_pads > capacity:
             out.append(f"up to {self.max_pads} pads per board, but the smallest placement area "
-                       f"holds about {capacity} pads {self.min_pad_spacing_mm} mm apart by random "
-                       f"placement; use fewer nets or pads, a bigger board or a smaller spacing")
+                       f"holds about {capacity} pads {self.min_pad_spacing_mm} mm apart on the "
+                       f"{self.lattice_mm} mm lattice by random placement; use fewer nets or "
+                       f"pads, a bigger board, a smaller spacing or a finer lattice")
         return out
+
+    def lattice_positions(self) -> int:
+        """Lattice points the smallest placement area is sure to hold."""
+        lattice = mm_to_nm(self.lattice_mm)
+        a = self.placement_fraction * mm_to_nm(self.width_mm[0])
+        b = self.placement_fraction * mm_to_nm(self.height_mm[0])
+        return int(a // lattice) * int(b // lattice)
 
     @property
     def max_pads(self) -> int:
@@ -128,12 +215,19 @@ class D2Params:
 
 def _coerce(key: str, value, annotation: str, where: str):
     def bad(expected: str):
-        return UserError(f"{where}: D2 parameter {key!r} must be {expected}, got {value!r}")
+        shown = repr(value) if len(repr(value)) <= 80 else repr(value)[:77] + "..."
+        return UserError(f"{where}: D2 parameter {key!r} must be {expected}, got {shown}")
 
     def number(v):
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise bad("a number" if "tuple" not in annotation else "a list of numbers")
-        return float(v)
+        try:
+            out = float(v)
+        except OverflowError:  # an integer beyond any float
+            out = math.inf
+        if not math.isfinite(out):
+            raise bad("finite (nan and inf are not sizes or probabilities)")
+        return out
 
     if annotation == "float":
         return number(value)
@@ -183,6 +277,7 @@ class D2Generator:
 
     def generate(self, seed: int, split: str, index: int) -> Instance:
         p = self.params
+        check_seed(seed)
         stream = Stream(seed, "d2", 0, split, index)
         # Sides are kept to the micrometre so that files stay short and exact.
         width = mm_to_nm(round(stream.uniform(*p.width_mm), 3))

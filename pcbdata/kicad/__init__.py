@@ -1,6 +1,7 @@
 """Access to KiCad 9 (pcbnew, kicad-cli): the only package that runs KiCad, and the bottom layer.
 
-Every KiCad call runs inside `KicadPool` worker processes (`pool.py`): `basics.py` (pcbnew:
+Every KiCad call runs inside `KicadPool` worker processes (`pool.py`, started by exec of
+`worker.py`): `basics.py` (pcbnew:
 load, DRC, staging), `upgrade.py` (D3), `scoring.py` (evaluator), `specctra.py` (routing),
 `cli_tools.py` and `previews.py` (kicad-cli). Pure helpers: `drc_report.py` (the DRC report as
 plain data), `projectfile.py` (`.kicad_pro` JSON). Modules here import only the standard

@@ -19,7 +19,8 @@ import os
 import re
 import tempfile
 
-from pcbdata.kicad.basics import board_drc_text, pcbnew_module as _pcbnew, stage_with_project
+from pcbdata.kicad.basics import board_drc_text, stage_with_project
+from pcbdata.kicad.basics import pcbnew_module as _pcbnew
 from pcbdata.kicad.drc_report import NO_NET, parse_drc_report
 from pcbdata.sexpr_text import block_end
 

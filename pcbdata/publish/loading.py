@@ -19,7 +19,7 @@ from pcbdata.hashing import sha256_bytes, sha256_file
 from pcbdata.publish.card import read_card_configs
 from pcbdata.publish.layout import CARD_NAME, FILE_COLUMNS, STATE_NAME, split_key, suggest
 from pcbdata.publish.verify import recorded_shard_hashes as _recorded_hashes
-from pcbdata.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE, board_dir
+from pcbdata.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE
 
 ROOT_ENV = "PCBDATA_ROOT"
 _HUB_ID = re.compile(r"^[A-Za-z0-9][\w.-]*/[\w.-]+$")
@@ -96,14 +96,7 @@ def _load_split(config: str, split: str, root: str | Path, **kwargs):
     if split not in card[config]:
         raise suggest(split, card[config], "split")
     shards = card[config][split]
-    recorded = _recorded_hashes(root)
-    for rel in shards:
-        if not (root / rel).is_file():
-            raise UserError(f"{root / rel}: shard listed in the card is missing; run "
-                            f"`pcbdata publish {root}` again")
-        if rel in recorded and sha256_file(root / rel) != recorded[rel]:
-            raise UserError(f"{root / rel}: corrupt parquet shard (its sha256 differs from "
-                            f"{STATE_NAME}); run `pcbdata verify {root}`")
+    _check_recorded(root, shards)
     if _empty_split(root, shards):
         # `datasets` cannot read a split with no rows ("corresponds to no data"), e.g. a D3 tier
         # that a small corpus leaves empty; the columns still come from the shard's schema.
@@ -113,7 +106,7 @@ def _load_split(config: str, split: str, root: str | Path, **kwargs):
     if "cache_dir" not in kwargs:
         # datasets prepares all splits
         every = [rel for paths in card[config].values() for rel in paths]
-        kwargs["cache_dir"] = str(_cache_dir(root, every, recorded))
+        kwargs["cache_dir"] = str(_cache_dir(root, every, _recorded_hashes(root)))
     try:
         return datasets.load_dataset(str(root), config, split=split, **kwargs)
     except Exception:  # noqa: BLE001
@@ -181,7 +174,11 @@ def row_files(row: dict) -> dict[str, bytes]:
         if row.get(text_col) is not None:
             files[name] = (row[text_col], row.get(hash_col))
     for item in row.get("other_files") or []:
-        files[item["name"]] = (item["text"], item.get("sha256"))
+        name = item.get("name")
+        if not _plain_name(name) or item.get("text") is None:
+            raise UserError(f"{row.get('board_id')}: other file {name!r} is not a plain file "
+                            f"name with text (damaged row)")
+        files[name] = (item["text"], item.get("sha256"))
     out = {}
     for name, (text, digest) in files.items():
         data = text.encode("utf-8")
@@ -196,13 +193,7 @@ def materialize_row(row: dict, out_dir: str | Path, layout: str = "tree") -> Pat
     """Writes one row's board folder; returns it. `layout="tree"` gives
     `out_dir/<config>/<split>/<board_id>/` (the built set's layout), `"flat"`
     `out_dir/<board_id>/`."""
-    out_dir = Path(out_dir)
-    if layout == "tree":
-        folder = board_dir(out_dir, row["config"], row["split"], row["board_id"])
-    elif layout == "flat":
-        folder = out_dir / row["board_id"]
-    else:
-        raise UserError(f"unknown layout {layout!r}; choose tree or flat")
+    folder = _target(row, Path(out_dir), layout)
     write_dir_atomic(folder, dict[str, bytes | str](row_files(row)))
     return folder
 
@@ -252,6 +243,10 @@ def iter_boards(rows: Iterable[dict] | str, split: str = "test", root=None,
 
 def _shards_of(source: Path, configs: list[str] | None, splits: list[str] | None) -> list[Path]:
     if source.is_file():
+        # a shard of a set folder (SET/<config>/<shard>) is checked against SET's publish.json
+        root = source.resolve().parent.parent
+        if (root / STATE_NAME).is_file():
+            _check_recorded(root, [str(source.resolve().relative_to(root))])
         return [source]
     if not source.is_dir():
         raise UserError(f"{source}: no such set folder or parquet file")
@@ -262,26 +257,36 @@ def _shards_of(source: Path, configs: list[str] | None, splits: list[str] | None
     for name in configs or []:
         if name not in card:
             raise suggest(name, card, "config")
+    chosen = [c for c in card if not configs or c in configs]
+    for name in splits or []:
+        if not any(name in card[c] for c in chosen):
+            raise suggest(name, {s for c in chosen for s in card[c]}, "split")
     out = []
-    for config in card:
-        if configs and config not in configs:
-            continue
+    for config in chosen:
         for split in sorted(card[config], key=split_key):
             if splits and split not in splits:
                 continue
             out += [source / rel for rel in card[config][split]]
+    _check_recorded(source, [str(p.relative_to(source)) for p in out])
     return out
 
 
-def materialize(sources: list[str | Path], out_dir: str | Path, configs: list[str] | None = None,
-                splits: list[str] | None = None, board_ids: list[str] | None = None,
-                layout: str = "tree") -> dict:
-    """Writes the rows of published sets or parquet shards as board folders under `out_dir`.
+def _check_recorded(root: Path, shards: list[str]) -> None:
+    """Refuses a set folder's shards the way `load` does: each must exist and match the sha256
+    that `publish.json` recorded for it (a row edited in place, even with its row hash
+    recomputed, changes the shard's hash)."""
+    recorded = _recorded_hashes(root)
+    for rel in shards:
+        if not (root / rel).is_file():
+            raise UserError(f"{root / rel}: shard listed in the card is missing; run "
+                            f"`pcbdata publish {root}` again")
+        if rel in recorded and sha256_file(root / rel) != recorded[rel]:
+            raise UserError(f"{root / rel}: corrupt parquet shard (its sha256 differs from "
+                            f"{STATE_NAME}); run `pcbdata verify {root}`")
 
-    Returns counts: {"written", "recipes"} (recipe rows have no text and are listed, not
-    written)."""
-    written, recipes = 0, []
-    wanted = set(board_ids or [])
+
+def _selected_rows(sources, configs, splits, wanted: set[str]):
+    """(shard, row) of every row the filters select, in source and shard order."""
     for source in sources:
         for shard in _shards_of(Path(source), configs, splits):
             try:
@@ -296,9 +301,74 @@ def materialize(sources: list[str | Path], out_dir: str | Path, configs: list[st
                         continue
                     if wanted and row.get("board_id") not in wanted:
                         continue
-                    if row.get("board") is None:
-                        recipes.append(f"{row.get('config')}/{row.get('split')}/{row.get('board_id')}")
-                        continue
-                    materialize_row(row, out_dir, layout=layout)
-                    written += 1
-    return {"written": written, "recipes": recipes}
+                    yield shard, row
+
+
+def _plain_name(name) -> bool:
+    """A single path component: no separators, not `.`/`..`, not empty."""
+    return isinstance(name, str) and name not in ("", ".", "..") and not any(
+        c in name for c in "/\\\0")
+
+
+def _target(row: dict, out_dir: Path, layout: str) -> Path:
+    """The row's board folder under `out_dir`; its names must be plain folder names (a row
+    naming `..` or a path would write outside `out_dir`)."""
+    if layout not in ("tree", "flat"):
+        raise UserError(f"unknown layout {layout!r}; choose tree or flat")
+    keys = ("config", "split", "board_id") if layout == "tree" else ("board_id",)
+    names = [row.get(key) for key in keys]
+    for key, name in zip(keys, names):
+        if not _plain_name(name):
+            raise UserError(f"a row's {key} {name!r} is not a plain folder name; refusing to "
+                            f"write it (damaged or foreign row)")
+    return out_dir.joinpath(*(str(name) for name in names))
+
+
+def _plan(sources, out_dir: Path, configs, splits, board_ids, layout) -> tuple[dict, list[str]]:
+    """Checks every selected row before anything is written: target folder -> (shard, row
+    hash), and the recipe rows. A damaged row, a requested board that is not found, or two
+    different rows for one folder (e.g. the same board id of two configs with --flat) stop
+    the run here."""
+    targets: dict[Path, tuple[Path, str]] = {}
+    recipes, found = [], set()
+    for shard, row in _selected_rows(sources, configs, splits, set(board_ids or [])):
+        found.add(row.get("board_id"))
+        if row.get("board") is None:
+            recipes.append(f"{row.get('config')}/{row.get('split')}/{row.get('board_id')}")
+            continue
+        files = row_files(row)
+        digest = sha256_bytes(b"".join(name.encode() + b"\0" + data
+                                       for name, data in sorted(files.items())))
+        folder = _target(row, out_dir, layout)
+        if folder in targets and targets[folder][1] != digest:
+            raise UserError(f"{folder}: two different rows would be written there "
+                            f"({targets[folder][0]} and {shard}); use the tree layout or "
+                            f"select one config")
+        targets[folder] = (shard, digest)
+    missing = sorted(set(board_ids or []) - found)
+    if missing:
+        raise UserError(f"--board: not found in the selected rows: {', '.join(missing)}")
+    return targets, recipes
+
+
+def materialize(sources: list[str | Path], out_dir: str | Path, configs: list[str] | None = None,
+                splits: list[str] | None = None, board_ids: list[str] | None = None,
+                layout: str = "tree") -> dict:
+    """Writes the rows of published sets or parquet shards as board folders under `out_dir`.
+
+    Every row is checked first (set folders: shards against `publish.json`; rows: file
+    hashes), so a refused run writes nothing. Returns counts: {"written", "recipes"} (recipe
+    rows have no text and are listed, not written)."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise UserError(f"--out {out_dir}: exists and is not a folder")
+    targets, recipes = _plan(sources, out_dir, configs, splits, board_ids, layout)
+    written = set()
+    for _, row in _selected_rows(sources, configs, splits, set(board_ids or [])):
+        if row.get("board") is None:
+            continue
+        folder = _target(row, out_dir, layout)
+        if folder not in written:
+            write_dir_atomic(folder, dict[str, bytes | str](row_files(row)))
+            written.add(folder)
+    return {"written": len(written), "recipes": recipes}

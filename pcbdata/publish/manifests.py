@@ -174,7 +174,7 @@ def _check_split(where: str, pinned: dict, split: dict) -> list[str]:
     whole = count == full  # a split that claims the release's size must be the release's split
     if whole:
         for key in sorted((set(pinned) | set(split)) - _SPLIT_VOLATILE - {"boards", "count"}):
-            for path, old, new in _differences(key, pinned.get(key), split.get(key)):
+            for path, _old, _new in _differences(key, pinned.get(key), split.get(key)):
                 problems.append(f"{where}: {path} differs from the pinned release")
     released, held = pinned.get("boards", {}), split.get("boards", {})
     for board_id in sorted(set(held) | (set(released) if whole else set())):

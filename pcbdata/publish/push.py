@@ -23,6 +23,48 @@ from pcbdata.tree import D3_TABLES, arrays_name
 # the collection's licence notice): uploaded when present.
 EXTRA_TOP_FILES = D3_TABLES
 _REPO_RE = re.compile(r"^[A-Za-z0-9][\w.-]*/[\w.-]+$")
+# What `git check-ref-format` refuses in a ref name (the Hub's tags are git tags).
+_REF_BAD_CHARS = set(" ~^:?*[\\") | {chr(c) for c in range(32)} | {chr(127)}
+
+
+def check_repo(repo: str) -> str:
+    """OWNER/NAME as the Hub accepts it (huggingface_hub's own check: 96 characters at most,
+    letters, digits, '-', '_', '.', no '--' or '..', no '.git' ending)."""
+    from huggingface_hub.utils import HFValidationError, validate_repo_id
+
+    if not _REPO_RE.match(repo):
+        raise UserError(f"--repo {repo!r}: expected OWNER/NAME")
+    try:
+        validate_repo_id(repo)
+    except HFValidationError as exc:
+        raise UserError(f"--repo {repo!r}: not a valid Hub repository id ({exc})") from None
+    return repo
+
+
+def tag_problem(tag: str) -> str | None:
+    """Why `tag` is not a valid git tag name (`git check-ref-format`), or None."""
+    bad = sorted(set(tag) & _REF_BAD_CHARS)
+    if not tag:
+        return "empty"
+    if bad:
+        return "contains " + ", ".join(repr(c) for c in bad)
+    if ".." in tag or "@{" in tag or "//" in tag or tag == "@":
+        return "contains '..', '@{', '//' or is '@'"
+    if tag.startswith(("-", "/")) or tag.endswith(("/", ".", ".lock")):
+        return "starts with '-' or '/', or ends with '/', '.' or '.lock'"
+    if any(part.startswith(".") or part.endswith(".lock") for part in tag.split("/")):
+        return "a '/'-separated part starts with '.' or ends with '.lock'"
+    if len(tag.encode("utf-8")) > 255:
+        return "longer than 255 bytes"
+    return None
+
+
+def check_tags(tags: list[str]) -> list[str]:
+    for tag in tags:
+        problem = tag_problem(tag)
+        if problem:
+            raise UserError(f"--tag {tag!r}: not a valid git tag ({problem})")
+    return tags
 
 
 def files_to_push(root: Path) -> list[str]:
@@ -53,8 +95,8 @@ def push(root: str | Path, repo: str, tags: list[str] | None = None, dry_run: bo
          private: bool = False, token: str | None = None, say=print) -> list[str]:
     """Uploads the published set at `root` to the dataset repo `repo`; returns the file list."""
     root = Path(root)
-    if not _REPO_RE.match(repo):
-        raise UserError(f"--repo {repo!r}: expected OWNER/NAME")
+    check_repo(repo)
+    check_tags(tags or [])  # before anything is read or sent
     manifest = read_manifest(root)
     problems = verify_published(root, manifest)
     if problems:

@@ -17,8 +17,9 @@ PACKAGE = REPO_ROOT / "pcbdata"
 LEAVES = {"pcbdata.errors", "pcbdata.hashing", "pcbdata.textio", "pcbdata.tree",
           "pcbdata.sexpr_text", "pcbdata.specctra_text"}
 THIRD_PARTY_ALLOWED = {"pcbnew"}
-#: Pure geometry, no KiCad: the leaves may use it (Specctra boundary inset).
-LEAF_THIRD_PARTY = {"shapely"}
+#: Pure numerics and geometry, no KiCad: the leaves may use them (cut-file check, Specctra
+#: boundary inset).
+LEAF_THIRD_PARTY = {"numpy", "shapely"}
 
 
 def _imports(path: Path) -> list[tuple[int, str]]:
