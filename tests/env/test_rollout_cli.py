@@ -33,3 +33,21 @@ def test_rollout_bad_agent_is_a_user_error(board_set, tmp_path, capsys):
             "--out", str(tmp_path / "r")]
     assert main(argv) == 2
     assert "pcbdata: error: --agent" in capsys.readouterr().err
+
+
+def test_a_rollout_whose_worker_dies_is_reported_and_left_pending(board_set, tmp_path, capsys):
+    runs = tmp_path / "runs"
+    argv = ["rollout", str(board_set), "--config", "d2", "--agent",
+            "tests.env.agents_for_tests:CrashingAgent", "--limit", "1", "--workers", "1",
+            "--out", str(runs)]
+    assert main(argv) == 3
+    captured = capsys.readouterr()
+    assert "board_00000 #0: failed: worker" in captured.out
+    assert "1 rollouts failed" in captured.err
+    assert not (runs / "board_00000" / "0.json").exists()  # pending: the next run retries it
+
+
+def test_rollout_unknown_config_names_the_closest(board_set, tmp_path, capsys):
+    argv = ["rollout", str(board_set), "--config", "d2-hardd", "--out", str(tmp_path / "r")]
+    assert main(argv) == 2
+    assert "did you mean 'd2-hard'" in capsys.readouterr().err
