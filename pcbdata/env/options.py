@@ -47,7 +47,7 @@ class EnvOptions:
     finish_tries: int = 3
     task_timeout: float = 120.0
     engine_env: dict | None = None  # environment of the KiCad worker (e.g. LD_PRELOAD)
-    fast_drc: bool = True  # preload pcbdata.kicad.fastwait into the worker when installed
+    fast_drc: bool = True  # False: the worker runs without pcbdata.kicad.fastwait's preload
     render_mode: str | None = None
 
     def family(self) -> str:

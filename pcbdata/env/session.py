@@ -2,13 +2,13 @@
 time limit per task) that holds the board (`pcbdata.kicad.routing_session`)."""
 from __future__ import annotations
 
-import importlib
 import shutil
 import tempfile
 import weakref
 from pathlib import Path
 
 from pcbdata.env.errors import EngineFailure
+from pcbdata.kicad import fastwait
 from pcbdata.kicad.pool import KicadPool
 
 SESSION = "pcbdata.kicad.routing_session"
@@ -29,16 +29,12 @@ class KicadSession:
 
     @staticmethod
     def worker_env(env: dict | None, fast_drc: bool) -> dict:
-        """The worker's environment: `env`, plus the preload that removes KiCad's 250 ms DRC
-        polling wait (`pcbdata.kicad.fastwait`, when this install has it and `fast_drc`) unless
-        `env` sets LD_PRELOAD itself."""
+        """The worker's environment: `env`, and without `fast_drc` an LD_PRELOAD without the
+        preload that removes KiCad's 250 ms DRC polling wait (`KicadPool` adds it by default,
+        `pcbdata.kicad.fastwait`; an LD_PRELOAD in `env` wins either way)."""
         out = dict(env or {})
-        if "LD_PRELOAD" not in out:
-            try:
-                fastwait = importlib.import_module("pcbdata.kicad.fastwait")
-            except ImportError:
-                return out
-            out.update(fastwait.preload_env(enabled=fast_drc))
+        if not fast_drc and "LD_PRELOAD" not in out:
+            out.update(fastwait.preload_env(enabled=False))
         return out
 
     def _new_pool(self) -> KicadPool:

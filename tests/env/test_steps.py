@@ -272,3 +272,15 @@ def test_copper_text_is_an_obstacle(tmp_path, board_set):
         assert router.segment_is_clear(net.name, "B.Cu", *across, net.track_width, net.clearance)
     finally:
         env.close()
+
+
+def test_worker_runs_with_the_drc_wait_preload_unless_turned_off(make_env):
+    from pcbdata.kicad import fastwait
+
+    if fastwait.library_path() is None:
+        pytest.skip("the fastwait preload is not built (scripts/build-fastwait.sh)")
+    for fast_drc, loaded in ((True, True), (False, False)):
+        env = make_env(fast_drc=fast_drc)
+        env.reset(seed=0)
+        pool = env.unwrapped._session._pool
+        assert (pool.call("pcbdata.kicad.fastwait:shortened_sleeps") is not None) == loaded
