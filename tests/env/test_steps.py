@@ -284,3 +284,21 @@ def test_worker_runs_with_the_drc_wait_preload_unless_turned_off(make_env):
         env.reset(seed=0)
         pool = env.unwrapped._session._pool
         assert (pool.call("pcbdata.kicad.fastwait:shortened_sleeps") is not None) == loaded
+
+
+def test_close_leaves_no_worker_behind(make_env):
+    import time
+
+    env = make_env()
+    env.reset(seed=0)
+    pid = env.unwrapped._session._pool.call("os:getpid")
+    os.kill(pid, 0)  # alive
+    env.close()
+    deadline = time.monotonic() + 10
+    while time.monotonic() < deadline:
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+    raise AssertionError(f"KiCad worker {pid} still runs after close()")
