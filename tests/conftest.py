@@ -3,6 +3,7 @@ temporary folder, so tests neither read nor write the user's files."""
 from __future__ import annotations
 
 import os
+import subprocess
 import tempfile
 from pathlib import Path
 
@@ -19,6 +20,8 @@ os.environ["HF_DATASETS_OFFLINE"] = "1"
 
 REPO_ROOT = Path(__file__).resolve().parent.parent
 SHARED_PCBENCH = REPO_ROOT.parent / "shared" / "pcbench" / "pcbench.tar.xz"
+SMALLEST = 150   # the real subset: the boards with the fewest terminal pads ...
+SPREAD_EVERY = 25  # ... plus every 25th of the others by pads
 
 
 @pytest.fixture(scope="session")
@@ -28,3 +31,49 @@ def kicad_pool():
 
     with KicadPool(workers=2, task_timeout=300) as pool:
         yield pool
+
+
+def _subset(checkout: Path) -> list[str]:
+    from pcbdata.curation.corpus import read_routing
+
+    sizes = []
+    for folder in sorted((checkout / "PCBs").iterdir()):
+        if not folder.is_dir():
+            continue
+        try:
+            pads = read_routing(folder / "final.json")[1]
+        except (OSError, ValueError):
+            pads = -1
+        sizes.append((pads, folder.name, (folder / "processed.kicad_pcb").is_file()))
+    sizes.sort()
+    chosen = [name for _, name, _ in sizes[:SMALLEST]]
+    chosen += [name for _, name, _ in sizes[SMALLEST::SPREAD_EVERY]]
+    chosen += [name for _, name, present in sizes if not present]  # the 7 missing boards
+    return sorted(set(chosen))
+
+
+@pytest.fixture(scope="session")
+def real_subset(tmp_path_factory, kicad_pool):
+    """A CI-sized subset of the PCBench snapshot built with the packaged recipe (D3-A, B, C
+    test boards): {"out": the built set, "summary", "names"}. Shared by the curation and
+    environment tests; skips when the snapshot is absent."""
+    if not SHARED_PCBENCH.is_file():
+        pytest.skip(f"real-corpus tests need the PCBench snapshot at {SHARED_PCBENCH} "
+                    f"(absent on this machine)")
+    from pcbdata.curation.build import build
+    from pcbdata.curation.recipe import load_recipe
+
+    root = tmp_path_factory.mktemp("pcbench")
+    (root / "full").mkdir()
+    subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(root / "full")], check=True)
+    full = root / "full"
+    names = _subset(full)
+    sub = root / "subset"
+    (sub / "PCBs").mkdir(parents=True)
+    for name in names:
+        (sub / "PCBs" / name).symlink_to(full / "PCBs" / name, target_is_directory=True)
+    (sub / "github_meta").symlink_to(full / "github_meta", target_is_directory=True)
+    (sub / "LICENSE").symlink_to(full / "LICENSE")
+    out = root / "out"
+    summary = build(sub, out, load_recipe(), pool=kicad_pool, log=lambda line: None)
+    return {"out": out, "summary": summary, "names": names}

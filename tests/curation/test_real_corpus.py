@@ -9,59 +9,11 @@ from __future__ import annotations
 import csv
 import json
 import os
-import subprocess
 from pathlib import Path
 
 import pytest
 
-from tests.conftest import SHARED_PCBENCH
-
 PINS = Path(__file__).parent / "data" / "real_subset_expected.json"
-SMALLEST = 150   # the boards with the fewest terminal pads ...
-SPREAD_EVERY = 25  # ... plus every 25th of the others by pads
-
-
-def _subset(checkout: Path) -> list[str]:
-    from pcbdata.curation.corpus import read_routing
-
-    sizes = []
-    for folder in sorted((checkout / "PCBs").iterdir()):
-        if not folder.is_dir():
-            continue
-        try:
-            pads = read_routing(folder / "final.json")[1]
-        except (OSError, ValueError):
-            pads = -1
-        sizes.append((pads, folder.name, (folder / "processed.kicad_pcb").is_file()))
-    sizes.sort()
-    chosen = [name for _, name, _ in sizes[:SMALLEST]]
-    chosen += [name for _, name, _ in sizes[SMALLEST::SPREAD_EVERY]]
-    chosen += [name for _, name, present in sizes if not present]  # the 7 missing boards
-    return sorted(set(chosen))
-
-
-@pytest.fixture(scope="session")
-def real_subset(tmp_path_factory, kicad_pool):
-    if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"real-corpus tests need the PCBench snapshot at {SHARED_PCBENCH} "
-                    f"(absent on this machine)")
-    from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
-
-    root = tmp_path_factory.mktemp("pcbench")
-    (root / "full").mkdir()
-    subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(root / "full")], check=True)
-    full = root / "full"
-    names = _subset(full)
-    sub = root / "subset"
-    (sub / "PCBs").mkdir(parents=True)
-    for name in names:
-        (sub / "PCBs" / name).symlink_to(full / "PCBs" / name, target_is_directory=True)
-    (sub / "github_meta").symlink_to(full / "github_meta", target_is_directory=True)
-    (sub / "LICENSE").symlink_to(full / "LICENSE")
-    out = root / "out"
-    summary = build(sub, out, load_recipe(), pool=kicad_pool, log=lambda line: None)
-    return {"out": out, "summary": summary, "names": names}
 
 
 def _observed(real_subset) -> dict:

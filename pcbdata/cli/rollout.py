@@ -1,0 +1,48 @@
+"""`pcbdata rollout`: run an agent in the routing environment over a board set."""
+from __future__ import annotations
+
+import os
+import sys
+
+VERB = "rollout"
+HELP = "run an agent (scripted, random or module:Class) in the routing environment over a set"
+
+
+def register(parser) -> None:
+    parser.add_argument("dir", metavar="SET", help="a built board set")
+    parser.add_argument("--config", required=True, help="config name, e.g. d2, d1-g10, d3-a")
+    parser.add_argument("--split", default="test", help="split name (default: test)")
+    parser.add_argument("--agent", default="scripted",
+                        help="scripted (default), random, or module:Class with act(obs, info)")
+    parser.add_argument("--rollouts", type=int, default=1, help="rollouts per board (seeds 0..)")
+    parser.add_argument("--out", required=True, metavar="RUNS",
+                        help="RUNS/<board_id>/<rollout>.kicad_pcb + .json (pcbdata eval reads it)")
+    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
+                        help="parallel environments, each with its KiCad worker (default: cores)")
+    parser.add_argument("--limit", type=int, help="only the first N boards")
+    parser.add_argument("--max-steps", type=int, default=200, help="step limit (default: 200)")
+    parser.add_argument("--drc", choices=("step", "terminal"), default="step",
+                        help="KiCad DRC after every copper change (default) or at the end only")
+    parser.set_defaults(run=run)
+
+
+def run(args) -> int:
+    from pcbdata.env.rollout import run_rollouts
+    from pcbdata.errors import UserError
+
+    if args.rollouts < 1 or args.workers < 1:
+        raise UserError("--rollouts and --workers must be at least 1")
+    summary = run_rollouts(args.dir, args.config, args.split, args.agent, args.rollouts,
+                           args.out, args.workers, args.limit,
+                           {"max_steps": args.max_steps, "drc": args.drc})
+    mean = summary["mean_reward"]
+    print(f"done: {summary['run']} rollouts run, {summary['skipped']} already done, "
+          f"{summary['terminated']} fully connected, {summary['engine_failures']} engine "
+          f"failures, mean reward {mean:.3f}" if mean is not None else
+          f"done: nothing to run ({summary['skipped']} already done)", end="")
+    print(f", {summary['seconds']:.1f} s")
+    if summary["failed"]:
+        print(f"pcbdata: KiCad failed: {summary['failed']} rollouts failed (time limit or crash; "
+              f"see above); run again to retry them", file=sys.stderr)
+        return 3
+    return 0

@@ -1,0 +1,185 @@
+"""Agents with `act(obs, info) -> action`: the scripted rule-based baseline and a masked
+random agent. Both read only the observation and `info["action_mask"]`.
+
+`ScriptedAgent` (the environment's own baseline): nets in order of their pads' bounding box
+(small first; `seed` > 0 perturbs the order for @k rollouts); per net it starts at an end of
+the shortest open ratsnest edge, on a layer both pads share if any, and calls `finish` in
+`walkaround` mode until the net is joined; when the head's layer has no reachable pad it drops
+a via at the head (never on a drilled pad: it restarts on the pad's other layer instead) and
+goes on from the other layer; it releases the net when done or out of ideas.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from pcbdata.env.types import (
+    FINISH,
+    IDLE,
+    MAKE_VIA,
+    NET,
+    NET_END,
+    NET_SELECT,
+    NO_NET,
+    PAD,
+    START_ROUTE,
+    WALKAROUND,
+)
+
+
+def action(kind: int, net: int = 0, candidate: int = 0, mode: int = WALKAROUND) -> dict:
+    return {"type": kind, "net": net, "candidate": candidate, "mode": mode}
+
+
+class RandomAgent:
+    """Uniform over allowed action types, then over allowed arguments (seeded)."""
+
+    def __init__(self, seed: int = 0):
+        self.rng = np.random.default_rng(seed)
+
+    def _pick(self, mask: np.ndarray) -> int:
+        allowed = np.flatnonzero(mask)
+        return int(self.rng.choice(allowed)) if allowed.size else 0
+
+    def act(self, obs, info) -> dict:
+        m = info["action_mask"]
+        kind = self._pick(m["type"])
+        cands = m["candidate_via"] if kind == MAKE_VIA else m["candidate"]
+        return action(kind, self._pick(m["net"]), self._pick(cands), self._pick(m["mode"]))
+
+
+def _open_edges(obs) -> np.ndarray:
+    geo = obs["routing_geometry"]
+    return geo["ratsnest"][: int(geo["ratsnest_count"])]
+
+
+def _net_order(obs, seed: int) -> list[int]:
+    """Net indices by the half-perimeter of their pads' bounding box, small first."""
+    static = obs["board_static"]
+    pads = static["pads"][static["pads"][:, 0] == 1]
+    keys = []
+    for net in sorted(set(int(n) for n in pads[:, 1] if n >= 0)):
+        xy = pads[pads[:, 1] == net][:, 2:4]
+        keys.append((float(np.ptp(xy[:, 0]) + np.ptp(xy[:, 1])), net))
+    order = [net for _, net in sorted(keys)]
+    rng = np.random.default_rng(seed)
+    for i in range(len(order) - 1):  # seeded adjacent swaps: a nearby order per rollout
+        if seed and rng.random() < 0.5:
+            order[i], order[i + 1] = order[i + 1], order[i]
+    return order
+
+
+class ScriptedAgent:
+    """The rule-based baseline (see the module doc). `done` turns True when it has nothing
+    left to try (a runner may then stop the episode early)."""
+
+    def __init__(self, seed: int = 0, tries_per_net: int = 6, mode: int = WALKAROUND):
+        self.seed = seed
+        self.tries_per_net = tries_per_net
+        self.mode = mode  # WALKAROUND; MARK_OBSTACLES lays lines through obstacles (demos, tests)
+        self._board = None
+
+    def _new_episode(self, obs) -> None:
+        self._order = _net_order(obs, self.seed)
+        self._tries: dict[int, int] = {}
+        self._started: set[tuple] = set()
+        self._gave_up: set[int] = set()
+        self._finish_failed: set[tuple] = set()
+        self._vias: set[tuple] = set()
+        self._last = IDLE
+        self.done = False
+
+    def act(self, obs, info) -> dict:
+        if int(obs["step"]) == 0 or self._board != info.get("board_id"):
+            self._board = info.get("board_id")
+            self._new_episode(obs)
+        head = obs["router_head"]
+        if self._last == FINISH and info.get("router") and not info["router"]["ok"]:
+            self._finish_failed.add(self._head_key(obs))
+        phase = int(head["phase"])
+        if phase == NO_NET:
+            chosen = self._select(obs, info)
+        elif phase == NET:
+            chosen = self._start(obs, info)
+        else:
+            chosen = self._route(obs, info)
+        self._last = chosen["type"]
+        return chosen
+
+    @staticmethod
+    def _head_key(obs) -> tuple:
+        head = obs["router_head"]
+        return (float(head["position"][0]), float(head["position"][1]), int(head["layer"]))
+
+    def _select(self, obs, info) -> dict:
+        open_nets = {int(e[1]) for e in _open_edges(obs)}
+        for net in self._order:
+            if net in open_nets and net not in self._gave_up and info["action_mask"]["net"][net]:
+                return action(NET_SELECT, net=net)
+        self.done = True
+        return action(IDLE)
+
+    def _pad_layers(self, obs, x: float, y: float) -> list[int]:
+        static = obs["board_static"]
+        rows = np.flatnonzero((static["pads"][:, 0] == 1) & (static["pads"][:, 2] == x)
+                              & (static["pads"][:, 3] == y))
+        if not rows.size:
+            return []
+        return [int(layer) for layer in np.flatnonzero(static["pad_layers"][rows[0]])]
+
+    def _start_options(self, obs, net: int) -> list[tuple]:
+        """(x, y, layer) starts: ends of the net's open edges, shortest edge first, layers the
+        two pads share first."""
+        edges = [e for e in _open_edges(obs) if int(e[1]) == net]
+        edges.sort(key=lambda e: ((e[2] - e[4]) ** 2 + (e[3] - e[5]) ** 2, tuple(e)))
+        options = []
+        for e in edges:
+            ends = [(float(e[2]), float(e[3])), (float(e[4]), float(e[5]))]
+            shared = set(self._pad_layers(obs, *ends[0])) & set(self._pad_layers(obs, *ends[1]))
+            for x, y in ends:
+                layers = self._pad_layers(obs, x, y)
+                ordered = sorted(layers, key=lambda layer: layer not in shared)
+                options += [(x, y, layer) for layer in ordered]
+        return options
+
+    def _start(self, obs, info) -> dict:
+        net = int(obs["router_head"]["net"])
+        self._tries[net] = self._tries.get(net, 0) + 1
+        cands = obs["router_head"]["candidates"]
+        mask = info["action_mask"]["candidate"]
+        if self._tries[net] <= self.tries_per_net:
+            for x, y, layer in self._start_options(obs, net):
+                if (net, x, y, layer) in self._started:
+                    continue
+                for i, c in enumerate(cands):
+                    if mask[i] and c[0] == PAD and (c[1], c[2], int(c[3])) == (x, y, layer):
+                        self._started.add((net, x, y, layer))
+                        return action(START_ROUTE, candidate=i)
+        self._gave_up.add(net)
+        return action(NET_END)
+
+    def _route(self, obs, info) -> dict:
+        net = int(obs["router_head"]["net"])
+        m = info["action_mask"]
+        if not any(int(e[1]) == net for e in _open_edges(obs)):
+            return action(NET_END)
+        key = self._head_key(obs)
+        if m["type"][FINISH] and m["mode"][self.mode] and key not in self._finish_failed:
+            return action(FINISH, mode=self.mode)
+        via = self._via_here(obs, info, key)
+        if via is not None:
+            self._vias.add(key[:2])
+            return action(MAKE_VIA, candidate=via, mode=self.mode)
+        return action(NET_END)  # restart from another pad or layer, or give the net up
+
+    def _via_here(self, obs, info, key: tuple) -> int | None:
+        """The candidate at the head for a via, unless the head sits on a drilled pad or a via
+        was already dropped here."""
+        static = obs["board_static"]["pads"]
+        drilled = (static[:, 0] == 1) & (static[:, 2] == key[0]) & (static[:, 3] == key[1]) \
+            & (static[:, 7] > 0)
+        if drilled.any() or key[:2] in self._vias or not info["action_mask"]["type"][MAKE_VIA]:
+            return None
+        for i, c in enumerate(obs["router_head"]["candidates"]):
+            if info["action_mask"]["candidate_via"][i] and (c[1], c[2], int(c[3])) == key:
+                return i
+        return None

@@ -1,0 +1,368 @@
+"""`RoutingEnv`: route one instance from its bare board (SPEC section 6).
+
+KiCad's: the board model, the tracks and vias, connectivity, DRC with the instance's own rules,
+saving (one KiCad worker process per environment, `pcbdata.env.session`). pcbdata's: the
+walkaround path search, the mark-obstacles line, `finish`, candidates and masks.
+"""
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from pcbdata.configs import get_config
+from pcbdata.env import candidates as cand
+from pcbdata.env import masks, observation, routing
+from pcbdata.env.actions import action_space, parse_action
+from pcbdata.env.errors import BoardLoadError, EngineFailure, EnvValueError
+from pcbdata.env.instances import instance_files, make_source
+from pcbdata.env.options import make_options
+from pcbdata.env.reward import Telescope, board_state, canonical, counted, unconnected_from_clusters
+from pcbdata.env.session import KicadSession
+from pcbdata.env.static import static_board
+from pcbdata.env.types import (
+    ACTION_TYPES,
+    ENGINE,
+    FINISH,
+    MAKE_LINE,
+    MAKE_VIA,
+    MODES,
+    NET_END,
+    NET_SELECT,
+    PHASES,
+    ROUTING,
+    START_ROUTE,
+    Head,
+)
+
+
+class RoutingEnv(gym.Env):
+    metadata = {"render_modes": []}
+    # Set by __init__ / reset(); steps run only after reset() (Gymnasium's order).
+    action_space: spaces.Dict
+    observation_space: spaces.Dict
+    static: Any
+    _session: Any
+    _head: Head | None
+    _net: str | None
+    _router: Any
+    timings: dict[str, Any]
+
+    def __init__(self, **options):
+        self.options = o = make_options(**options)
+        self.config = get_config(o.config)
+        self.source = make_source(self.config, o.root, o.split, o.rows, o.count)
+        self.action_space = action_space(o.max_nets, o.max_candidates)
+        self.observation_space = observation.observation_space(o)
+        self.render_mode = o.render_mode
+        self._session: KicadSession | None = None
+        self.static = None
+        self.timings = {"kicad_s": 0.0, "router_s": []}  # wall times: never in obs or info
+        self._ended = True
+
+    # ---- episode start -------------------------------------------------------------
+    def reset(self, *, seed=None, options=None):
+        super().reset(seed=seed)
+        index = self._pick(options or {})
+        if self._session is None:
+            self._session = KicadSession(self.options.task_timeout, self.options.engine_env,
+                                         self.options.fast_drc)
+        folder = self.source.folder(index, self._session.work)
+        try:
+            opened = self._timed(self._session.open, *instance_files(folder))
+        except EngineFailure as exc:
+            raise BoardLoadError(f"{self.source.board_ids[index]}: {exc}") from None
+        self.static = static_board(self.source.board_ids[index], opened["static"], self.config)
+        self._check_capacity()
+        self._begin(opened["snapshot"])
+        info = self._info(rejected=None, router=None)
+        info.update(net_names=[n.name for n in self.static.nets], layers=list(self.static.layers))
+        return self._observation(), info
+
+    def _pick(self, options: dict) -> int:
+        unknown = set(options) - {"board_id", "index"}
+        if unknown:
+            raise EnvValueError(f"unknown reset option(s) {sorted(unknown)}; use board_id or index")
+        ids = self.source.board_ids
+        if "board_id" in options:
+            if options["board_id"] not in ids:
+                raise EnvValueError(f"board_id {options['board_id']!r} is not in this "
+                                    f"environment's {len(ids)} boards ({ids[0]} ... {ids[-1]})")
+            return ids.index(options["board_id"])
+        if "index" in options:
+            index = int(options["index"])
+            if not 0 <= index < len(ids):
+                raise EnvValueError(f"index {index} out of range [0, {len(ids)})")
+            return index
+        return int(self.np_random.integers(len(ids)))
+
+    def _check_capacity(self) -> None:
+        s, o = self.static, self.options
+        for name, have, cap in (("max_nets", len(s.nets), o.max_nets),
+                                ("max_pads", len(s.pads), o.max_pads),
+                                ("max_outline_points", sum(map(len, s.outline)),
+                                 o.max_outline_points),
+                                ("max_layers (32)", len(s.layers), observation.MAX_LAYERS)):
+            if have > cap:
+                raise BoardLoadError(f"{s.board_id}: {have} > {name}={cap}; pass {name}=... "
+                                     f"to gym.make")
+
+    def _begin(self, snap: dict) -> None:
+        self._snap, self._violations = snap, canonical(snap["violations"])
+        self._drc_fresh = True
+        self._net, self._head, self._step_no = None, None, 0
+        self._ended, self._terminated, self._truncated = False, False, False
+        self._router, self._router_stale = None, False
+        self._state = self._measure()
+        self._telescope = Telescope(self._state["phi"], self.options.reward == "step")
+        self._static_obs = observation.static_part(self.static,
+                                                   self.observation_space["board_static"])
+        self._refresh_masks()
+
+    def _timed(self, function, *args):
+        began = time.perf_counter()
+        try:
+            return function(*args)
+        finally:
+            self.timings["kicad_s"] += time.perf_counter() - began
+
+    # ---- measurement -----------------------------------------------------------------
+    def _measure(self) -> dict:
+        """The evaluator's board state (Phi, U, DRV...) of the current snapshot. Without a fresh
+        DRC (drc="terminal"), unconnected items come from the pad clusters and other
+        violations are not counted until the final DRC."""
+        violations = self._violations if self._drc_fresh else \
+            unconnected_from_clusters(self._snap["clusters"])
+        measurement = {"violations": violations, "wl_mm": self._snap["wl_mm"],
+                       "vias": self._snap["vias"], "net_count": self._snap["net_count"],
+                       "clusters": self._snap["clusters"]}
+        return board_state(measurement, self.options.weights, self.options.counting)
+
+    def _counted(self) -> list[dict]:
+        if not self._drc_fresh:
+            return unconnected_from_clusters(self._snap["clusters"])
+        return counted(self._violations, self.options.counting)
+
+    # ---- masks -----------------------------------------------------------------------
+    def _refresh_masks(self) -> None:
+        s, o = self.static, self.options
+        self._cands = cand.candidates(s, self._net, self._head, self._snap["copper"],
+                                      round(o.ring_mm * 1e6), o.max_candidates)
+        net = self._net_rules()
+        margin = s.edge_clearance + (net.track_width // 2 if net else 0)
+        line, via = masks.candidate_masks(s, self._cands, self._head, margin)
+        nets = masks.net_mask(s, o.max_nets)
+        modes, self._mode_reasons = masks.mode_mask()
+        phase = masks.phase_of(self._net, self._head)
+        can_finish = phase == ROUTING and bool(self._finish_targets())
+        self._masks = {"type": masks.type_mask(phase, bool(nets.any()), line, via, can_finish),
+                       "net": nets, "candidate": line, "candidate_via": via, "mode": modes}
+
+    def action_masks(self) -> dict:
+        """Per-argument masks (1 = allowed): type, net, candidate (start_route / make_line),
+        candidate_via (make_via), mode."""
+        return {k: v.copy() for k, v in self._masks.items()}
+
+    def _net_rules(self):
+        return next((n for n in self.static.nets if n.name == self._net), None)
+
+    def _current_head(self) -> Head:
+        """The head (routing phase only: the masks allow no routing action without one)."""
+        assert self._head is not None, "no head: the phase machine allows this only in routing"
+        return self._head
+
+    def _head_cluster(self) -> int | None:
+        h, s, snap = self._current_head(), self.static, self._snap
+        layer = s.layers[h.layer]
+        for record in snap["copper"]:
+            if record["net"] != self._net:
+                continue
+            if record["kind"] == "via" and (record["x"], record["y"]) == (h.x, h.y):
+                return record["cluster"]
+            if record["kind"] != "via" and record["layer"] == layer and \
+                    (h.x, h.y) in (tuple(record["start"]), tuple(record["end"])):
+                return record["cluster"]
+        for i in s.pads_of(self._net):
+            if (s.pads[i].x, s.pads[i].y) == (h.x, h.y) and h.layer in s.pads[i].layers:
+                return snap["pad_cluster"][i]
+        return None
+
+    def _finish_targets(self) -> list[tuple[int, int]]:
+        """Pad centres of the net on the head's layer not joined to the head's copper."""
+        s, h = self.static, self._current_head()
+        cluster = self._head_cluster()
+        return sorted({(s.pads[i].x, s.pads[i].y) for i in s.pads_of(self._net)
+                       if h.layer in s.pads[i].layers and self._snap["pad_cluster"][i] != cluster
+                       and (s.pads[i].x, s.pads[i].y) != (h.x, h.y)})
+
+    # ---- steps -----------------------------------------------------------------------
+    def step(self, action):
+        if self._ended or self.static is None:
+            return self._after_end()
+        self._step_no += 1
+        parsed, rejected = parse_action(action, self.action_space)
+        rejected = rejected or self._masked(parsed)
+        router, changed = None, False
+        if rejected is None:
+            try:
+                router, changed = self._do(parsed)
+            except EngineFailure as exc:
+                return self._engine_failed(str(exc))
+        return self._finish_step(rejected, router, changed)
+
+    def _after_end(self):
+        obs = self._observation() if self.static is not None else self.observation_space.sample()
+        info = self._info(rejected="the episode has ended: call reset()", router=None) \
+            if self.static is not None else {"rejected": "call reset() first"}
+        return obs, 0.0, self._terminated, self._truncated, info
+
+    def _masked(self, a) -> str | None:
+        m, name = self._masks, ACTION_TYPES[a.type]
+        if not m["type"][a.type]:
+            return f"{name} is masked in phase {PHASES[masks.phase_of(self._net, self._head)]}"
+        if a.type == NET_SELECT and not m["net"][a.net]:
+            return f"net index {a.net}: " + ("unknown net" if a.net >= len(self.static.nets)
+                                             else "a net with fewer than two pads")
+        if a.type in (START_ROUTE, MAKE_LINE) and not m["candidate"][a.candidate]:
+            return f"{name}: candidate {a.candidate} is masked"
+        if a.type == MAKE_VIA and not m["candidate_via"][a.candidate]:
+            return f"{name}: candidate {a.candidate} is masked for a via"
+        if a.type in (MAKE_LINE, MAKE_VIA, FINISH) and not m["mode"][a.mode]:
+            return f"{name}: mode {MODES[a.mode]}: " + self._mode_reasons.get(MODES[a.mode], "")
+        return None
+
+    def _do(self, a) -> tuple[dict | None, bool]:
+        """Carries out an allowed action; returns (router report, copper changed)."""
+        if a.type == NET_SELECT:
+            self._net, self._head = self.static.nets[a.net].name, None
+        elif a.type == NET_END:
+            self._net, self._head = None, None
+        elif a.type == START_ROUTE:
+            c = self._cands[a.candidate]
+            self._head = Head(c.x, c.y, c.layer)
+        elif a.type in (MAKE_LINE, MAKE_VIA, FINISH):
+            return self._route(a)
+        return None, False
+
+    def _route(self, a) -> tuple[dict, bool]:
+        s, net, times = self.static, self._net_rules(), self.timings["router_s"]
+        head = self._current_head()
+        goal = (self._cands[a.candidate].x, self._cands[a.candidate].y)
+        if a.type == MAKE_LINE:
+            done = routing.make_line(s, self._get_router, net, head, goal, a.mode, times)
+        elif a.type == MAKE_VIA:
+            done = routing.make_via(s, self._get_router, net, head, goal, a.mode, times)
+        else:
+            done = routing.finish(s, self._get_router, net, head, self._finish_targets(),
+                                  a.mode, self.options.finish_tries, times)
+        report = {"ok": done.ok, "mode": MODES[a.mode], "reason": done.reason,
+                  "stats": done.stats}
+        if not done.ok:
+            return report, False
+        if done.edits:
+            self._apply(done.edits)
+        self._head = done.head
+        return report, bool(done.edits)
+
+    def _get_router(self):
+        """The episode's walkaround router, brought up to date with the board's copper (one
+        router per episode: `update` reuses the shapes of items it has seen)."""
+        if self._router is None or self._router_stale:
+            from pcbdata.env.geometry_bridge import board_geometry
+            from pcbdata.env.walkaround import WalkaroundRouter
+
+            geometry = board_geometry(self.static, self._snap["copper"])
+            if self._router is None:
+                self._router = WalkaroundRouter(geometry, budget_nodes=self.options.router_nodes,
+                                                budget_seconds=self.options.router_seconds)
+            else:
+                self._router.update(geometry)
+            self._router_stale = False
+        return self._router
+
+    def _apply(self, edits: list[dict]) -> None:
+        drc = self.options.drc == "step"
+        self._snap = self._timed(self._session.apply, edits, drc)
+        self._drc_fresh = drc
+        if drc:
+            self._violations = canonical(self._snap["violations"])
+        self._router_stale = True
+
+    def _finish_step(self, rejected, router, changed):
+        if changed:
+            self._state = self._measure()
+        terminated, truncated = self._end_flags()
+        if (terminated or truncated) and not self._drc_fresh:
+            try:  # drc="terminal": the final DRC, so the last reward carries the penalty
+                self._final_drc()
+            except EngineFailure as exc:
+                return self._engine_failed(str(exc))
+            terminated, truncated = self._end_flags()
+        reward = self._telescope.reward(self._state["phi"], final=terminated or truncated)
+        self._terminated, self._truncated = terminated, truncated
+        self._ended = terminated or truncated
+        self._refresh_masks()
+        return self._observation(), float(reward), terminated, truncated, \
+            self._info(rejected=rejected, router=router)
+
+    def _end_flags(self) -> tuple[bool, bool]:
+        terminated = self._state["unconnected"] == 0
+        return terminated, not terminated and self._step_no >= self.options.max_steps
+
+    def _final_drc(self) -> None:
+        self._snap = self._timed(self._session.snapshot, True)
+        self._violations, self._drc_fresh = canonical(self._snap["violations"]), True
+        self._state = self._measure()
+
+    def _engine_failed(self, reason: str):
+        """A KiCad crash or time-out: the episode ends as truncated; reset() starts a fresh
+        worker and reloads."""
+        self._ended, self._terminated, self._truncated = True, False, True
+        info = self._info(rejected=None, router=None)
+        info["engine_failure"] = reason
+        return self._observation(), 0.0, False, True, info
+
+    # ---- observation and info ----------------------------------------------------------
+    def _observation(self) -> dict:
+        space = self.observation_space
+        geometry, self._cut = observation.geometry_part(self.static, self._snap,
+                                                        space["routing_geometry"])
+        phase = masks.phase_of(self._net, self._head)
+        return {"board_static": {k: v.copy() for k, v in self._static_obs.items()},
+                "routing_geometry": geometry,
+                "router_head": observation.head_part(self.static, phase, self._net, self._head,
+                                                     self._cands, space["router_head"]),
+                "drc": observation.drc_part(self.static, self._counted(), space["drc"]),
+                "step": np.asarray(min(self._step_no, self.options.max_steps), dtype=np.int64)}
+
+    def _info(self, rejected, router) -> dict:
+        state = self._state
+        return {"board_id": self.static.board_id, "step": self._step_no,
+                "phase": PHASES[masks.phase_of(self._net, self._head)], "net": self._net,
+                "rejected": rejected, "router": router, "unconnected": state["unconnected"],
+                "drv": state["drv"], "phi": state["phi"], "wl_mm": state["wl"],
+                "vias": state["via"], "counting": self.options.counting,
+                "drc_fresh": self._drc_fresh, "engine": dict(ENGINE),
+                "action_mask": self.action_masks(), "masked_modes": dict(self._mode_reasons),
+                "observation_cut": getattr(self, "_cut", False)}
+
+    # ---- outputs -----------------------------------------------------------------------
+    def save(self, path) -> str:
+        """Writes the current board (the instance's own board with the agent's tracks and
+        vias, saved by KiCad) as a `.kicad_pcb` that `pcbdata eval` scores."""
+        if self._session is None:
+            raise EnvValueError("nothing to save: call reset() first")
+        return self._session.save(str(path))
+
+    @property
+    def board_id(self) -> str | None:
+        return self.static.board_id if self.static else None
+
+    def close(self) -> None:
+        if self._session is not None:
+            self._session.close()
+            self._session = None
+        super().close()

@@ -1,0 +1,48 @@
+"""The board as the walkaround router sees it (`pcbdata.env.geometry.BoardGeometry`): pad
+polygons per layer, tracks, vias and zones from KiCad, each with its net's clearance."""
+from __future__ import annotations
+
+from pcbdata.env.types import StaticBoard
+
+
+def _pad_items(static: StaticBoard, clearance: dict[str, int], CopperItem) -> list:
+    items = []
+    for pad in static.pads:
+        by_shape: dict[tuple, list[str]] = {}
+        for layer, rings in sorted(pad.polygons.items()):
+            for ring in rings:
+                by_shape.setdefault(tuple(tuple(p) for p in ring), []).append(layer)
+        for ring, layers in by_shape.items():
+            items.append(CopperItem(kind="pad", net=pad.net, layers=tuple(layers), polygon=ring,
+                                    clearance=clearance.get(pad.net, 0)))
+    return items
+
+
+def _copper_item(record: dict, static: StaticBoard, clearance: dict[str, int], CopperItem):
+    net = record["net"]
+    if record["kind"] == "via":
+        at = (record["x"], record["y"])
+        return CopperItem(kind="via", net=net, layers=static.layers, start=at, end=at,
+                          width=record["diameter"], clearance=clearance.get(net, 0))
+    return CopperItem(kind=record["kind"], net=net, layers=(record["layer"],),
+                      start=tuple(record["start"]), end=tuple(record["end"]),
+                      mid=tuple(record["mid"]) if "mid" in record else None,
+                      width=record["width"], clearance=clearance.get(net, 0))
+
+
+def board_geometry(static: StaticBoard, copper: list[dict]):
+    """BoardGeometry of the static board plus the current tracks and vias."""
+    from pcbdata.env.geometry import BoardGeometry, CopperItem
+
+    clearance = {net.name: net.clearance for net in static.nets}
+    default = max([n.clearance for n in static.nets] or [0])
+    items = _pad_items(static, clearance, CopperItem)
+    items += [CopperItem(kind="zone", net=z["net"], layers=(z["layer"],),
+                         polygon=tuple(tuple(p) for p in z["polygon"]),
+                         clearance=clearance.get(z["net"], default)) for z in static.zones]
+    items += [CopperItem(kind="graphic", net=g["net"], layers=(g["layer"],),
+                         polygon=tuple(tuple(p) for p in g["polygon"]),
+                         clearance=clearance.get(g["net"], 0)) for g in static.graphics]
+    items += [_copper_item(r, static, clearance, CopperItem) for r in copper]
+    return BoardGeometry(outline=static.outline, copper=tuple(items),
+                         edge_clearance=static.edge_clearance)

@@ -1,0 +1,86 @@
+"""The environment's keyword options: defaults, capacities per family, and checking (an
+unknown option is an error naming the closest known one)."""
+from __future__ import annotations
+
+import difflib
+from dataclasses import dataclass, fields, replace
+from typing import Any
+
+from pcbdata.env.errors import EnvOptionError, EnvValueError
+from pcbdata.evaluator.metrics import Weights
+
+#: Fixed array sizes of the observation (per family); a board larger than these is a clear
+#: error at reset naming the option to raise.
+CAPACITIES = {
+    "d1": {"max_nets": 8, "max_pads": 16, "max_tracks": 512, "max_vias": 16,
+           "max_outline_points": 64, "max_ratsnest": 16},
+    "d2": {"max_nets": 32, "max_pads": 128, "max_tracks": 1024, "max_vias": 256,
+           "max_outline_points": 64, "max_ratsnest": 128},
+    "d3": {"max_nets": 1024, "max_pads": 4096, "max_tracks": 4096, "max_vias": 1024,
+           "max_outline_points": 2048, "max_ratsnest": 2048},
+}
+
+
+@dataclass(frozen=True)
+class EnvOptions:
+    config: str = "d2"
+    root: str | None = None  # a built set folder; None: D1/D2 boards from the generator
+    split: str = "test"
+    rows: object = None  # dataset rows (e.g. `load_dataset(...)`): boards written to files
+    count: int | None = None  # boards of the split to draw from (default: all)
+    max_steps: int = 200
+    reward: str = "step"  # "step" or "terminal"
+    counting: str = "strict"  # "strict" or "evaluation" (SPEC section 4)
+    weights: Weights = Weights()
+    drc: str = "step"  # "step": KiCad DRC after every copper change; "terminal": at the end
+    ring_mm: float = 0.5
+    max_candidates: int = 64
+    max_nets: int = 0  # 0: the family's capacity (CAPACITIES)
+    max_pads: int = 0
+    max_tracks: int = 0
+    max_vias: int = 0
+    max_outline_points: int = 0
+    max_ratsnest: int = 0
+    max_violations: int = 32
+    router_nodes: int = 20000
+    router_seconds: float = 2.0  # safety net only: the node budget keeps results deterministic
+    finish_tries: int = 3
+    task_timeout: float = 120.0
+    engine_env: dict | None = None  # environment of the KiCad worker (e.g. LD_PRELOAD)
+    fast_drc: bool = True  # False: the worker runs without pcbdata.kicad.fastwait's preload
+    render_mode: str | None = None
+
+    def family(self) -> str:
+        return self.config.split("-", 1)[0]
+
+
+CHOICES = {"reward": ("step", "terminal"), "counting": ("strict", "evaluation"),
+           "drc": ("step", "terminal"), "split": ("train", "validation", "test", "full")}
+
+
+def make_options(**given) -> EnvOptions:
+    """EnvOptions from keywords; unknown names and bad choices raise with the closest name."""
+    known = [f.name for f in fields(EnvOptions)]
+    for name in given:
+        if name not in known:
+            close = difflib.get_close_matches(name, known, n=1, cutoff=0.5)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise EnvOptionError(f"unknown option {name!r} for the pcbdata routing "
+                                 f"environment{hint} (options: {', '.join(known)})")
+    if isinstance(given.get("weights"), dict):
+        given["weights"] = Weights(**given["weights"])
+    options = EnvOptions(**given)
+    for name, allowed in CHOICES.items():
+        value = getattr(options, name)
+        if value not in allowed:
+            close = difflib.get_close_matches(str(value), allowed, n=1, cutoff=0.3)
+            hint = f"; did you mean {close[0]!r}?" if close else ""
+            raise EnvValueError(f"option {name}={value!r} is not one of {', '.join(allowed)}{hint}")
+    negative = [name for name in CAPACITIES["d2"] if getattr(options, name) < 0]
+    if negative:
+        raise EnvValueError(f"{negative[0]} must be >= 1 (0: the family's default)")
+    if options.max_steps < 1 or options.max_candidates < 9:
+        raise EnvValueError("max_steps must be >= 1 and max_candidates >= 9 (8 ring slots + 1)")
+    caps = CAPACITIES.get(options.family(), CAPACITIES["d3"])
+    unset: dict[str, Any] = {k: v for k, v in caps.items() if getattr(options, k) == 0}
+    return replace(options, **unset)

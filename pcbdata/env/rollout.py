@@ -1,0 +1,152 @@
+"""Rollouts of an agent over a board set, written as `pcbdata eval` reads them:
+`RUNS/<board_id>/<rollout>.kicad_pcb` + `<rollout>.json` (time_s, steps, reward, ...).
+
+Parallel over `KicadPool` worker processes (exec-started, with a time limit per rollout; each
+keeps one environment, hence one KiCad worker of its own, for all its rollouts), resumable (a
+rollout whose JSON exists is skipped; files are written to temporary names and renamed, the
+JSON last). A rollout whose worker fails (time limit, crash) is reported and left pending.
+"""
+from __future__ import annotations
+
+import atexit
+import importlib
+import inspect
+import json
+import os
+import time
+from pathlib import Path
+from typing import Any
+
+from pcbdata.errors import UserError
+
+AGENTS = {"scripted": "pcbdata.env.agents:ScriptedAgent",
+          "random": "pcbdata.env.agents:RandomAgent"}
+
+
+def make_agent(spec: str, seed: int):
+    """An agent by name (`scripted`, `random`) or `module:Class`; seeded when it takes one."""
+    ref = AGENTS.get(spec, spec)
+    module, _, name = ref.partition(":")
+    if not name:
+        raise UserError(f"--agent {spec!r}: use scripted, random or module:Class")
+    try:
+        cls = getattr(importlib.import_module(module), name)
+    except (ImportError, AttributeError) as exc:
+        raise UserError(f"--agent {spec!r}: {exc}") from None
+    takes_seed = "seed" in inspect.signature(cls).parameters
+    return cls(seed=seed) if takes_seed else cls()
+
+
+def run_episode(env, agent, board_id: str, seed: int) -> dict:
+    """One episode from reset to its end (or until a scripted agent has nothing left to do)."""
+    began = time.perf_counter()
+    obs, info = env.reset(seed=seed, options={"board_id": board_id})
+    total, steps, terminated, truncated = 0.0, 0, False, False
+    while not (terminated or truncated):
+        act = agent.act(obs, info)
+        if getattr(agent, "done", False):
+            break
+        obs, reward, terminated, truncated, info = env.step(act)
+        total += reward
+        steps += 1
+    return {"board_id": board_id, "rollout": seed, "time_s": time.perf_counter() - began,
+            "steps": steps, "reward": total, "terminated": terminated, "truncated": truncated,
+            "unconnected": info["unconnected"], "drv": info["drv"],
+            "engine_failure": info.get("engine_failure")}
+
+
+_ENV: dict[str, Any] = {}
+
+
+def _env(env_kwargs: dict):
+    import gymnasium as gym
+
+    import pcbdata.env  # noqa: F401 - registers the ids
+    if "env" not in _ENV:
+        kwargs = dict(env_kwargs)
+        _ENV["env"] = gym.make(kwargs.pop("id"), **kwargs)
+        atexit.register(_ENV["env"].close)  # the worker ends normally when its pool stops
+    return _ENV["env"]
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(text, encoding="utf-8")
+    os.replace(tmp, path)
+
+
+def rollout_task(env_kwargs: dict, agent_spec: str, board_id: str, rollout: int,
+                 out: str) -> dict:
+    """Runs and writes one rollout (in a worker process)."""
+    env = _env(env_kwargs)
+    record = run_episode(env, make_agent(agent_spec, rollout), board_id, rollout)
+    folder = Path(out) / board_id
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = folder / f".{rollout}.tmp.kicad_pcb"
+    try:
+        env.unwrapped.save(str(tmp))
+        os.replace(tmp, folder / f"{rollout}.kicad_pcb")
+    except Exception as exc:  # noqa: BLE001 - a dead engine: the rollout has no board
+        record["save_error"] = str(exc)
+    record.update(agent=agent_spec, env_id=env_kwargs["id"])
+    _write_atomic(folder / f"{rollout}.json", json.dumps(record, indent=1, sort_keys=True))
+    return record
+
+
+def pending(board_ids: list[str], rollouts: int, out: Path) -> list[tuple[str, int]]:
+    """(board_id, rollout) pairs whose JSON is not written yet (the JSON is written last)."""
+    return [(b, r) for b in board_ids for r in range(rollouts)
+            if not (out / b / f"{r}.json").is_file()]
+
+
+#: Wall-time limit of one rollout (episode, save and JSON) in its worker.
+ROLLOUT_TIMEOUT = 3600.0
+
+
+def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, workers: int,
+                 limit: int | None = None, env_options: dict | None = None, log=print,
+                 timeout: float = ROLLOUT_TIMEOUT) -> dict:
+    """Runs every missing rollout; returns a summary. Progress lines go to `log`."""
+    from pcbdata.configs import get_config
+    from pcbdata.env.registry import env_id, register_all
+    from pcbdata.evaluator.runs import list_instances
+    from pcbdata.kicad.pool import KicadPool
+
+    get_config(config)  # an unknown config is a UserError naming the closest one
+    if env_id(config) not in register_all():
+        raise UserError(f"config {config!r} has no environment id: the ids are one per "
+                        f"config of the registry (e.g. {env_id('d2')})")
+    make_agent(agent, 0)  # a bad --agent fails before any work
+    board_ids = [b for b, _ in list_instances(Path(root), config, split)][:limit]
+    out = Path(out)
+    todo = pending(board_ids, rollouts, out)
+    env_kwargs = {"id": env_id(config), "root": str(root), "split": split, **(env_options or {})}
+    began, records, failed = time.perf_counter(), [], 0
+    tasks = [(env_kwargs, agent, b, r, str(out)) for b, r in todo]
+    with KicadPool(workers=max(1, min(workers, len(todo) or 1)), task_timeout=timeout,
+                   tasks_per_worker=10**9, memory_limit_mb=0) as pool:
+        for done, outcome in enumerate(pool.map(f"{__name__}:rollout_task", tasks), start=1):
+            if not outcome.ok:
+                failed += 1
+                board_id, rollout = todo[outcome.index]
+                log(f"[{done}/{len(todo)}] {board_id} #{rollout}: failed: {outcome.error}")
+                continue
+            rec = outcome.value
+            records.append(rec)
+            log(f"[{done}/{len(todo)}] {rec['board_id']} #{rec['rollout']}: {rec['steps']} steps,"
+                f" reward {rec['reward']:.3f}, U {rec['unconnected']}, DRV {rec['drv']}, "
+                f"{rec['time_s']:.2f} s" + (f", engine failure: {rec['engine_failure']}"
+                                            if rec.get("engine_failure") else ""))
+    summary = summarize(records, len(board_ids) * rollouts - len(todo),
+                        time.perf_counter() - began)
+    summary["failed"] = failed
+    return summary
+
+
+def summarize(records: list[dict], skipped: int, seconds: float) -> dict:
+    n = len(records)
+    return {"run": n, "skipped": skipped, "seconds": seconds,
+            "terminated": sum(r["terminated"] for r in records),
+            "mean_reward": sum(r["reward"] for r in records) / n if n else None,
+            "mean_time_s": sum(r["time_s"] for r in records) / n if n else None,
+            "engine_failures": sum(bool(r.get("engine_failure")) for r in records)}

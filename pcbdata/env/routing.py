@@ -1,0 +1,103 @@
+"""The routing operations (make_line, make_via, finish) as edits for the KiCad session.
+
+Geometry is pcbdata's: `walkaround` asks the walkaround router (`pcbdata.env.walkaround`) for a
+legal octilinear path; `mark_obstacles` lays the straight or two-segment octilinear line as
+asked, violations allowed. KiCad then holds the copper and judges it. An operation that cannot
+be done changes nothing and says why.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+from pcbdata.env.types import MARK_OBSTACLES, WALKAROUND, Head, NetRules, StaticBoard
+from pcbdata.env.walkaround import RouteRequest, mark_obstacles_path
+
+
+@dataclass
+class Outcome:
+    ok: bool
+    reason: str = ""
+    edits: list = field(default_factory=list)
+    head: Head | None = None
+    stats: dict = field(default_factory=dict)
+
+
+def octilinear_line(start, goal) -> tuple:
+    """The mark-obstacles line: straight when the direction is a multiple of 45 degrees, else
+    a straight then a diagonal segment (`walkaround.mark_obstacles_path`)."""
+    return mark_obstacles_path((int(start[0]), int(start[1])), (int(goal[0]), int(goal[1])))
+
+
+def via_layer(static: StaticBoard, layer: int) -> int:
+    """The layer a via takes the head to: the other outer copper layer."""
+    return len(static.layers) - 1 if layer == 0 else 0
+
+
+def _path(router, mode: int, net: NetRules, layer: str, start, goal, budget) -> Outcome:
+    if mode == MARK_OBSTACLES:
+        return Outcome(True, edits=[octilinear_line(start, goal)])
+    began = time.perf_counter()
+    result = router().route(RouteRequest(net=net.name, layer=layer, start=tuple(start),
+                                         goal=tuple(goal), width=net.track_width,
+                                         clearance=net.clearance))
+    budget.append(time.perf_counter() - began)
+    stats = deterministic_stats(result.stats)
+    if result.path is None:
+        return Outcome(False, f"walkaround: {result.reason or 'no path'}", stats=stats)
+    path = tuple(tuple(int(v) for v in p) for p in result.path)
+    if not path or path[0] != tuple(start) or path[-1] != tuple(goal):
+        return Outcome(False, "walkaround: the router's path does not join the head to the goal",
+                       stats=stats)
+    return Outcome(True, edits=[path], stats=stats)
+
+
+def deterministic_stats(stats) -> dict:
+    """The router's counters without wall-clock values: `info` must be the same on every run
+    (Gymnasium's determinism check compares it)."""
+    clocks = ("time", "second", "elapsed", "_ms", "_s")
+    return {str(k): v for k, v in sorted(dict(stats or {}).items())
+            if isinstance(v, (bool, int, str)) and not any(c in str(k) for c in clocks)}
+
+
+def _track_edit(net: NetRules, layer: str, points) -> dict:
+    return {"kind": "track", "net": net.name, "layer": layer, "points": [tuple(p) for p in points],
+            "width": net.track_width}
+
+
+def make_line(static, router, net: NetRules, head: Head, goal, mode: int, times) -> Outcome:
+    layer = static.layers[head.layer]
+    found = _path(router, mode, net, layer, (head.x, head.y), goal, times)
+    if not found.ok:
+        return found
+    edits = [_track_edit(net, layer, found.edits[0])] if tuple(goal) != (head.x, head.y) else []
+    return Outcome(True, edits=edits, head=Head(goal[0], goal[1], head.layer), stats=found.stats)
+
+
+def make_via(static, router, net: NetRules, head: Head, goal, mode: int, times) -> Outcome:
+    if mode == WALKAROUND and not router().via_fits(net.name, tuple(goal), net.via_diameter,
+                                                    net.clearance, tuple(static.layers)):
+        return Outcome(False, "walkaround: the via does not fit there (clearance)")
+    line = make_line(static, router, net, head, goal, mode, times)
+    if not line.ok:
+        return line
+    via = {"kind": "via", "net": net.name, "at": tuple(goal), "diameter": net.via_diameter,
+           "drill": net.via_drill}
+    return Outcome(True, edits=line.edits + [via],
+                   head=Head(goal[0], goal[1], via_layer(static, head.layer)), stats=line.stats)
+
+
+def finish(static, router, net: NetRules, head: Head, targets: list[tuple[int, int]], mode: int,
+           tries: int, times) -> Outcome:
+    """Routes from the head to the nearest of `targets` (pad centres on the head's layer, not yet
+    joined to the head's copper) that the mode reaches; at most `tries` targets are tried."""
+    if not targets:
+        return Outcome(False, "finish: no unconnected pad of the net on the head's layer")
+    order = sorted(targets, key=lambda t: ((t[0] - head.x) ** 2 + (t[1] - head.y) ** 2, t))
+    reasons = []
+    for goal in order[: max(1, tries)]:
+        done = make_line(static, router, net, head, goal, mode, times)
+        if done.ok:
+            return done
+        reasons.append(done.reason)
+    return Outcome(False, f"finish: no path to the {len(reasons)} nearest pads ({reasons[0]})")

@@ -1,0 +1,88 @@
+"""Plain data of the routing environment: action and mode orders, phases, candidates, and
+the instance's static board as the KiCad session reports it (integer nanometres)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+#: Action types, in the order of the action's `type` index (SPEC section 6).
+ACTION_TYPES = ("idle", "net_select", "net_end", "start_route", "make_line", "make_via", "finish")
+IDLE, NET_SELECT, NET_END, START_ROUTE, MAKE_LINE, MAKE_VIA, FINISH = range(7)
+#: Routing modes, in the order of the action's `mode` index.
+MODES = ("walkaround", "mark_obstacles", "push_n_shove")
+WALKAROUND, MARK_OBSTACLES, PUSH_N_SHOVE = range(3)
+#: Phases of the phase machine (observation `router_head.phase`).
+PHASES = ("no_net", "net", "routing")
+NO_NET, NET, ROUTING = range(3)
+#: Kinds of candidate points (observation column `kind`); 0 marks an empty slot.
+CANDIDATE_KINDS = ("empty", "ring", "pad", "via", "track_end")
+EMPTY, RING, PAD, VIA, TRACK_END = range(5)
+
+#: Who computes what (also in every step's `info["engine"]`).
+ENGINE = {
+    "board_model": "kicad", "tracks_and_vias": "kicad", "connectivity": "kicad",
+    "drc": "kicad", "saving": "kicad",
+    "walkaround": "pcbdata", "mark_obstacles": "pcbdata", "finish": "pcbdata",
+    "candidates": "pcbdata", "masks": "pcbdata", "push_n_shove": "not implemented (issue 11)",
+}
+
+Point = tuple[int, int]
+
+
+@dataclass(frozen=True)
+class Candidate:
+    x: int
+    y: int
+    layer: int  # index into StaticBoard.layers
+    kind: int  # one of CANDIDATE_KINDS
+
+
+@dataclass(frozen=True)
+class Head:
+    x: int
+    y: int
+    layer: int
+
+
+@dataclass(frozen=True)
+class NetRules:
+    name: str
+    clearance: int
+    track_width: int
+    via_diameter: int
+    via_drill: int
+
+
+@dataclass(frozen=True)
+class PadInfo:
+    net: str
+    x: int
+    y: int
+    size: tuple[int, int]
+    shape: str
+    layers: tuple[int, ...]  # layer indices
+    drill: int
+    name: str
+    polygons: dict = field(default_factory=dict, compare=False)  # layer name -> rings
+
+
+@dataclass(frozen=True)
+class StaticBoard:
+    """What does not change during an episode."""
+
+    board_id: str
+    layers: tuple[str, ...]
+    outline: tuple[tuple[Point, ...], ...]
+    nets: tuple[NetRules, ...]  # every net with a pad, in KiCad netcode order (action index)
+    pads: tuple[PadInfo, ...]
+    zones: tuple[dict, ...]
+    graphics: tuple[dict, ...]  # copper drawings and texts: {"net", "layer", "polygon"}
+    net_count: int
+    edge_clearance: int
+    grid_pitch: int | None  # D1: lattice pitch (nm)
+    grid_origin: int | None  # D1: lattice offset (nm), pad centres at origin + k * pitch
+
+    def net_index(self, name: str) -> int:
+        return next(i for i, net in enumerate(self.nets) if net.name == name)
+
+    def pads_of(self, net: str) -> list[int]:
+        return [i for i, pad in enumerate(self.pads) if pad.net == net]

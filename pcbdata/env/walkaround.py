@@ -1,0 +1,573 @@
+"""Walkaround router: octilinear paths that keep clearance to other nets (SPEC section 6).
+
+The environment's `walkaround` mode asks for a path from the head to a point on one copper
+layer. KiCad stays the judge, so a path we return must pass KiCad's DRC by construction:
+every segment keeps `max(request clearance, item clearance) + SAFETY` (copper edge to copper
+edge) from every other net's copper on the layer and `edge_clearance + SAFETY` from the board
+edge, checked exactly on the integer path we return.
+
+Tries, cheapest first: the straight segment (when start-goal is octilinear), the two one-bend
+paths, then a search. The search graph's nodes are the corners of octagonal keep-outs around
+obstacles (edges at 0/45/90/135 degrees, so paths hug obstacles along octilinear lines) and
+the inset board corners; two nodes are linked by a straight or one-bend octilinear path. A*
+runs lazily: a link is checked only when A* pops the node it leads to, which keeps the number
+of geometry checks near the number of expansions.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import shapely
+
+from pcbdata.env.geometry import (
+    BoardGeometry,
+    CopperItem,
+    Point,
+    bends,
+    copper_core,
+    direction,
+    is_octilinear,
+    item_sort_key,
+    octilinear_length,
+    one_bend_paths,
+    simplify_path,
+)
+
+SAFETY = 2_000  # nm beyond every clearance: slack for KiCad's own integer rounding
+NODE_MARGIN = 3_000  # nm beyond clearance for corner nodes: links along a keep-out pass SAFETY
+_ROOT2 = math.sqrt(2)
+# Outward normals of the octagon's sides, counter-clockwise from +x.
+_NORMALS = np.array([(math.cos(k * math.pi / 4), math.sin(k * math.pi / 4)) for k in range(8)])
+# Corner k of an octagon is where side k meets side k+1: p = inverse(normals) @ (h_k, h_k+1).
+_CORNER_SOLVERS = np.array(
+    [np.linalg.inv(np.stack([_NORMALS[k], _NORMALS[(k + 1) % 8]])) for k in range(8)]
+)
+_EDGE = "edge"
+# The search first looks at corners within this margin of the start-goal box (nm or share
+# of its size, whichever is larger) and doubles it while that window holds no path.
+WINDOW_MIN = 5_000_000
+WINDOW_SHARE = 0.5
+# Up to this many (segment, obstacle) pairs are screened all at once; more go through the
+# layer's R-tree first.
+_DENSE_PAIRS = 20_000
+
+
+@dataclass(frozen=True)
+class RouteRequest:
+    net: str
+    layer: str
+    start: tuple[int, int]
+    goal: tuple[int, int]
+    width: int
+    clearance: int
+
+
+@dataclass(frozen=True)
+class RouteResult:
+    path: tuple[tuple[int, int], ...] | None  # start ... goal, octilinear; None = no path
+    reason: str  # "" on success; why not otherwise
+    stats: dict = field(default_factory=dict)  # method, expanded, checks, nodes, seconds, ...
+
+
+def mark_obstacles_path(start: Point, goal: Point) -> tuple[Point, ...]:
+    """The `mark_obstacles` line: straight if octilinear, else straight then 45 degrees."""
+    if start == goal:
+        return ((int(start[0]), int(start[1])),)
+    return one_bend_paths(start, goal)[0]
+
+
+# --- obstacles -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """Per-item data that does not depend on the request; cached across `update` calls."""
+
+    core: shapely.Geometry
+    radius: float
+    support: tuple[float, ...]  # max of normal_k . p over the core, k = 0..7
+    inner: tuple[float, float]  # a point of the core
+    convex: bool
+
+
+def _prepare(core: shapely.Geometry, radius: float) -> _Prepared:
+    coords = shapely.get_coordinates(core)
+    support = tuple(float(s) for s in (coords @ _NORMALS.T).max(axis=0))
+    inner = shapely.get_coordinates(shapely.point_on_surface(core))[0]
+    convex = not isinstance(core, shapely.Polygon) or core.area >= 0.999 * core.convex_hull.area
+    return _Prepared(core, radius, support, (float(inner[0]), float(inner[1])), convex)
+
+
+class _Layer:
+    """Obstacles on one copper layer (items and board-edge segments) as parallel arrays."""
+
+    def __init__(self, records: list[tuple[str, str, int, _Prepared]], net_codes: dict[str, int]):
+        # records: (kind, net, clearance, prepared); net "" and edges are obstacles to every net.
+        self.kind = [r[0] for r in records]
+        self.net = [r[1] for r in records]
+        self.code = np.array(
+            [-1 if r[0] == _EDGE else net_codes[r[1]] for r in records], dtype=np.int64
+        )
+        self.is_edge = np.array([r[0] == _EDGE for r in records], dtype=bool)
+        self.clearance = np.array([r[2] for r in records], dtype=float)
+        prepared = [r[3] for r in records]
+        self.cores = np.array([p.core for p in prepared], dtype=object)
+        self.radius = np.array([p.radius for p in prepared], dtype=float)
+        self.support = np.array([p.support for p in prepared], dtype=float).reshape(-1, 8)
+        self.inner = np.array([p.inner for p in prepared], dtype=float).reshape(-1, 2)
+        self.convex = np.array([p.convex for p in prepared], dtype=bool)
+        self.tree = shapely.STRtree(self.cores)
+
+    def describe(self, index: int) -> str:
+        if self.kind[index] == _EDGE:
+            return "the board edge"
+        net = self.net[index]
+        return f"a {self.kind[index]} of net {net!r}" if net else f"a no-net {self.kind[index]}"
+
+
+class _Rules:
+    """One request's view of a layer: which items are obstacles and how far to stay away.
+
+    `need` is the smallest allowed distance from our centreline to an item's core. The
+    octagon `reach` (support + need in the 8 directions) contains everything closer, so a
+    segment wholly beyond one of its sides is clear without an exact test.
+    """
+
+    def __init__(
+        self,
+        layer: _Layer,
+        net_code: int,
+        half_width: float,
+        clearance: float,
+        edge_clearance: float,
+    ):
+        self.layer = layer
+        self.half_width = half_width
+        obstacle = layer.is_edge | (layer.code <= 0) | (layer.code != net_code)
+        gap = np.where(layer.is_edge, edge_clearance, np.maximum(clearance, layer.clearance))
+        need = layer.radius + half_width + gap + SAFETY
+        # Indexed by layer item; items of our own net get an empty reach (never checked).
+        self.obstacle = obstacle
+        self.need = np.where(obstacle, need, -np.inf)
+        self.reach = layer.support + self.need[:, None]
+        self.max_need = float(need[obstacle].max()) if obstacle.any() else 0.0
+
+    def violations(self, segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(segment, item) pairs closer than allowed, at least one per failing segment.
+
+        segments: (k, 2, 2) float; a zero-length segment checks a dot of our width.
+        """
+        seg, item = self._near_pairs(segments)
+        need = self.need[item]
+        # Within reach of a point of the core: violating.
+        hit = _point_segment_distance(self.layer.inner[item], segments[seg]) < need
+        known = np.zeros(len(segments), dtype=bool)
+        known[seg[hit]] = True
+        bad_seg, bad_item = [seg[hit]], [item[hit]]
+        # The rest: exact distance, for segments not already known to violate.
+        unsure = ~hit & ~known[seg]
+        if unsure.any():
+            lines = _lines(segments[seg[unsure]])
+            exact = shapely.distance(lines, self.layer.cores[item[unsure]]) < need[unsure]
+            bad_seg.append(seg[unsure][exact])
+            bad_item.append(item[unsure][exact])
+        return np.concatenate(bad_seg), np.concatenate(bad_item)
+
+    def _near_pairs(self, segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(segment, obstacle) pairs that no side of the obstacle's octagon separates."""
+        obstacles = np.flatnonzero(self.obstacle)
+        if not len(segments) or not len(obstacles):
+            return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
+        lowest = (segments @ _NORMALS.T).min(axis=1)  # (k, 8)
+        if len(segments) * len(obstacles) <= _DENSE_PAIRS:
+            near = ~(lowest[:, None, :] >= self.reach[obstacles][None]).any(axis=2)
+            seg, j = np.nonzero(near)
+            return seg, obstacles[j]
+        lo, hi = segments.min(axis=1) - self.max_need, segments.max(axis=1) + self.max_need
+        seg, item = self.layer.tree.query(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))
+        keep = self.obstacle[item]
+        seg, item = seg[keep], item[keep]
+        near = ~(lowest[seg] >= self.reach[item]).any(axis=1)
+        return seg[near], item[near]
+
+    def failing(self, segments: np.ndarray) -> np.ndarray:
+        """Whether each segment (k, 2, 2) violates clearance."""
+        bad = np.zeros(len(segments), dtype=bool)
+        bad[self.violations(segments)[0]] = True
+        return bad
+
+
+def _point_segment_distance(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """Distance from each point (p, 2) to its segment (p, 2, 2)."""
+    a, ab = segments[:, 0], segments[:, 1] - segments[:, 0]
+    ap = points - a
+    length2 = np.maximum((ab * ab).sum(axis=1), 1e-12)
+    t = np.clip((ap * ab).sum(axis=1) / length2, 0.0, 1.0)
+    return np.hypot(*(ap - t[:, None] * ab).T)
+
+
+def _lines(segments: np.ndarray) -> np.ndarray:
+    """Shapely geometries of (k, 2, 2) segments; a zero-length segment becomes a point."""
+    lines = shapely.linestrings(segments)
+    dots = np.all(segments[:, 0] == segments[:, 1], axis=1)
+    if dots.any():
+        lines[dots] = shapely.points(segments[dots, 0])
+    return lines
+
+
+def _segments(path) -> np.ndarray:
+    pts = np.asarray(path, dtype=float)
+    return np.stack([pts[:-1], pts[1:]], axis=1) if len(pts) > 1 else pts[None, [0, 0]]
+
+
+# --- the router ------------------------------------------------------------------------------
+
+
+class WalkaroundRouter:
+    """Plans octilinear paths on a snapshot of the board; make a new one (or `update`) after
+    every copper change."""
+
+    def __init__(
+        self, board: BoardGeometry, budget_nodes: int = 20000, budget_seconds: float = 1.0
+    ):
+        self.budget_nodes = budget_nodes
+        self.budget_seconds = budget_seconds
+        self._cache: dict[CopperItem, _Prepared] = {}
+        self.update(board)
+
+    def update(self, board: BoardGeometry) -> None:
+        """Takes a new board snapshot; items seen before reuse their prepared shapes."""
+        self.board = board
+        items = sorted(board.copper, key=item_sort_key)
+        self._cache = {
+            item: self._cache.get(item) or _prepare(*copper_core(item)) for item in items
+        }
+        self._region, edges = _board_region(board.outline)
+        self._edge_records = [(_EDGE, "", board.edge_clearance, _prepare(e, 0.0)) for e in edges]
+        nets = sorted({item.net for item in items} - {""})
+        self._net_codes = {"": 0, **{net: i for i, net in enumerate(nets, start=1)}}
+        self._by_layer: dict[str, list] = {}
+        for item in items:
+            for layer in item.layers:
+                self._by_layer.setdefault(layer, []).append(
+                    (item.kind, item.net, item.clearance, self._cache[item])
+                )
+        self._layers: dict[str, _Layer] = {}
+        self._inset_corners: dict[float, np.ndarray] = {}
+
+    # --- public checks ---
+
+    def segment_is_clear(
+        self, net: str, layer: str, a: Point, b: Point, width: int, clearance: int
+    ) -> bool:
+        """Whether a track a-b of this width keeps clearance to other nets and the edge."""
+        if not self._inside(np.array([a], dtype=float))[0]:
+            return False
+        return not self._rules(net, layer, width, clearance).failing(_segments([a, b]))[0]
+
+    def via_fits(
+        self, net: str, at: Point, diameter: int, clearance: int, layers: tuple[str, ...]
+    ) -> bool:
+        """Whether a via of this diameter at `at` keeps clearance on every layer and to the edge."""
+        if not self._inside(np.array([at], dtype=float))[0]:
+            return False
+        dot = _segments([at])
+        return not any(
+            self._rules(net, layer, diameter, clearance).failing(dot)[0] for layer in layers
+        )
+
+    # --- routing ---
+
+    def route(self, request: RouteRequest) -> RouteResult:
+        clock = time.perf_counter()
+        result = self._route(request, clock)
+        result.stats["seconds"] = time.perf_counter() - clock
+        return result
+
+    def _route(self, req: RouteRequest, clock: float) -> RouteResult:
+        start, goal = (int(req.start[0]), int(req.start[1])), (int(req.goal[0]), int(req.goal[1]))
+        if req.width <= 0 or req.clearance < 0:
+            return RouteResult(
+                None,
+                f"invalid request: width {req.width} nm, clearance {req.clearance} nm",
+                {"method": "none"},
+            )
+        rules = self._rules(req.net, req.layer, req.width, req.clearance)
+        for name, point in (("start", start), ("goal", goal)):
+            problem = self._point_problem(rules, point)
+            if problem:
+                return RouteResult(
+                    None, f"{name} {_mm(point)} on {req.layer} {problem}", {"method": "none"}
+                )
+        if start == goal:
+            return RouteResult((start,), "", {"method": "direct", "expanded": 0})
+        for path in one_bend_paths(start, goal):
+            if not rules.failing(_segments(path)).any():
+                method = "direct" if len(path) == 2 else "two_segment"
+                return RouteResult(tuple(path), "", {"method": method, "expanded": 0})
+        return _Search(self, rules, start, goal, clock).run()
+
+    # --- internals ---
+
+    def _rules(self, net: str, layer: str, width: int, clearance: int) -> _Rules:
+        if layer not in self._layers:
+            records = self._by_layer.get(layer, []) + self._edge_records
+            self._layers[layer] = _Layer(records, self._net_codes)
+        code = self._net_codes.get(net, -2)  # an unknown net owns nothing on the board
+        return _Rules(self._layers[layer], code, width / 2, clearance, self.board.edge_clearance)
+
+    def _inside(self, points: np.ndarray) -> np.ndarray:
+        if self._region is None:
+            return np.ones(len(points), dtype=bool)
+        return shapely.contains_xy(self._region, points[:, 0], points[:, 1])
+
+    def _point_problem(self, rules: _Rules, point: Point) -> str:
+        if not self._inside(np.array([point], dtype=float))[0]:
+            return "is outside the board"
+        _, items = rules.violations(_segments([point]))
+        if len(items):
+            return f"is within clearance of {rules.layer.describe(int(items.min()))}"
+        return ""
+
+    def _corner_nodes(self, rules: _Rules) -> np.ndarray:
+        """Candidate nodes: octagon corners around obstacles and the inset board corners."""
+        layer = rules.layer
+        items = np.flatnonzero(rules.obstacle & ~layer.is_edge)
+        # Octagon sides NODE_MARGIN (not SAFETY) beyond the clearance: links along them pass.
+        reach = rules.reach[items] - SAFETY + NODE_MARGIN
+        pairs = np.stack([reach, np.roll(reach, -1, axis=1)], axis=2)  # (m, 8, 2)
+        parts = [np.einsum("kij,mkj->mki", _CORNER_SOLVERS, pairs).reshape(-1, 2)]
+        for i in items[~layer.convex[items]]:  # octagons lose a zone's bays: add its own corners
+            grown = shapely.buffer(
+                layer.cores[i], rules.need[i] - SAFETY + NODE_MARGIN, join_style="mitre"
+            )
+            parts.append(shapely.get_coordinates(shapely.boundary(grown)))
+        parts.append(self._board_corners(rules.half_width))
+        return np.round(np.concatenate(parts))
+
+    def _board_corners(self, half_width: float) -> np.ndarray:
+        if self._region is None:
+            return np.empty((0, 2))
+        if half_width not in self._inset_corners:
+            inset = shapely.buffer(
+                self._region,
+                -(half_width + self.board.edge_clearance + NODE_MARGIN),
+                join_style="mitre",
+            )
+            self._inset_corners[half_width] = (
+                np.empty((0, 2))
+                if inset.is_empty
+                else shapely.get_coordinates(shapely.boundary(inset))
+            )
+        return self._inset_corners[half_width]
+
+
+def _board_region(outline) -> tuple[shapely.Geometry | None, list[shapely.Geometry]]:
+    """The board area (rings inside the first are cut-outs, others add area) and its edges."""
+    if not outline:
+        return None, []
+    region = shapely.make_valid(shapely.Polygon(outline[0]))
+    for ring in outline[1:]:
+        shape = shapely.make_valid(shapely.Polygon(ring))
+        region = region.difference(shape) if region.contains(shape) else region.union(shape)
+    edges = []
+    for ring in outline:
+        for a, b in zip(ring, ring[1:] + ring[:1]):
+            if tuple(a) != tuple(b):
+                edges.append(shapely.LineString([a, b]))
+    shapely.prepare(region)  # many containment tests follow
+    return region, edges
+
+
+def _mm(point: Point) -> str:
+    return f"({point[0] / 1e6:.4f}, {point[1] / 1e6:.4f}) mm"
+
+
+class _Search:
+    """A* over corner nodes inside a window around start and goal; node 0 is the start,
+    node 1 the goal.
+
+    Expanding a node checks, in one batch, its links to every node whose cost they would
+    lower. When the window holds no path, it grows until it covers every node.
+    """
+
+    def __init__(
+        self, router: WalkaroundRouter, rules: _Rules, start: Point, goal: Point, clock: float
+    ):
+        self.router, self.rules, self.clock = router, rules, clock
+        self.start, self.goal = start, goal
+        self.checks = self.expanded = 0
+        corners = router._corner_nodes(rules)
+        if len(corners):
+            corners = corners[router._inside(corners)]
+            corners = corners[~rules.failing(np.stack([corners, corners], axis=1))]
+        corners = (
+            np.unique(corners, axis=0).astype(np.int64)
+            if len(corners)
+            else np.empty((0, 2), np.int64)
+        )
+        ends = np.array([start, goal], dtype=np.int64)
+        self.corners = corners[~(corners[:, None, :] == ends[None]).all(axis=2).any(axis=1)]
+        self.ends = ends
+
+    def run(self) -> RouteResult:
+        lo, hi = self.ends.min(axis=0), self.ends.max(axis=0)
+        margin = max(WINDOW_MIN, WINDOW_SHARE * float((hi - lo).max()))
+        while True:
+            inside = np.all((self.corners >= lo - margin) & (self.corners <= hi + margin), axis=1)
+            result = self._astar(np.concatenate([self.ends, self.corners[inside]]))
+            if result is not None or inside.all():
+                return result or self._fail("no path: the obstacles enclose the start or the goal")
+            if self._over_budget():
+                return self._fail(self._budget_reason())
+            margin *= 2
+
+    def _over_budget(self) -> bool:
+        return (
+            self.expanded >= self.router.budget_nodes
+            or time.perf_counter() - self.clock > self.router.budget_seconds
+        )
+
+    def _budget_reason(self) -> str:
+        return (
+            f"no path within the search budget ({self.router.budget_nodes} nodes, "
+            f"{self.router.budget_seconds:g} s)"
+        )
+
+    def _astar(self, nodes: np.ndarray) -> RouteResult | None:
+        """A path through `nodes`, a failed result when out of budget, None when there is none."""
+        self.nodes = nodes
+        heuristic = _octilinear_to(nodes, self.goal)
+        g = np.full(len(nodes), np.inf)
+        parent = np.full(len(nodes), -1, dtype=np.int64)
+        closed = np.zeros(len(nodes), dtype=bool)
+        g[0] = 0.0
+        while True:
+            f = np.where(closed, np.inf, g + heuristic)
+            v = int(np.argmin(f))  # ties: the lowest index, i.e. the lowest (x, y)
+            if not np.isfinite(f[v]):
+                return None
+            if self._over_budget():
+                return self._fail(self._budget_reason())
+            closed[v] = True
+            self.expanded += 1
+            if v == 1:
+                return self._finish(parent)
+            cost = g[v] + _octilinear_to(nodes, tuple(nodes[v]))
+            targets = np.flatnonzero(~closed & (cost < g))
+            if len(targets):
+                reached = targets[self._links_clear(nodes[v], nodes[targets])]
+                g[reached] = cost[reached]
+                parent[reached] = v
+
+    def _links_clear(self, a: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        """Whether a clear straight or one-bend link joins a to each target (both one-bend
+        variants are checked in one batch: fewer, larger geometry calls are faster)."""
+        parts = [_link_segments(a, targets, variant) for variant in (0, 1)]
+        segments = np.concatenate([p[0] for p in parts])
+        owner = np.concatenate([p[1] + variant * len(targets) for variant, p in enumerate(parts)])
+        self.checks += len(targets)
+        bad = np.zeros(2 * len(targets), dtype=bool)
+        bad[owner[self.rules.failing(segments)]] = True
+        return ~bad[: len(targets)] | ~bad[len(targets) :]
+
+    def _link(self, a: Point, b: Point, heading) -> tuple[Point, ...] | None:
+        """A clear straight or one-bend path a-b (points after a), preferring no bend at a."""
+        options = sorted(one_bend_paths(a, b), key=lambda p: direction(p[0], p[1]) != heading)
+        self.checks += 1
+        for path in options:
+            if not self.rules.failing(_segments(path)).any():
+                return tuple(path[1:])
+        return None
+
+    def _finish(self, parent) -> RouteResult:
+        chain, node = [1], 1
+        while node != 0:
+            node = int(parent[node])
+            chain.append(node)
+        corners = [(int(self.nodes[i][0]), int(self.nodes[i][1])) for i in reversed(chain)]
+        path = self._shortcut(tuple(corners))
+        stats = {
+            "method": "search",
+            "expanded": self.expanded,
+            "checks": self.checks,
+            "nodes": len(self.nodes),
+        }
+        if (
+            path is None
+            or self.rules.failing(_segments(path)).any()
+            or not all(is_octilinear(a, b) for a, b in zip(path, path[1:]))
+        ):
+            return RouteResult(
+                None, "internal error: the search path failed its final check", stats
+            )
+        stats["length"] = sum(octilinear_length(a, b) for a, b in zip(path, path[1:]))
+        stats["bends"] = bends(path)
+        return RouteResult(path, "", stats)
+
+    def _shortcut(self, corners: tuple[Point, ...]) -> tuple[Point, ...] | None:
+        """Joins the corners A* chose by links, each from a corner to the farthest later one a
+        clear link reaches. A link is never longer than the corners it skips (octilinear
+        length obeys the triangle inequality) and bends at most once, so this only shortens
+        the path and removes bends."""
+        out, i = [corners[0]], 0
+        while i < len(corners) - 1:
+            heading = direction(out[-2], out[-1]) if len(out) > 1 else None
+            for j in range(len(corners) - 1, i, -1):
+                link = self._link(corners[i], corners[j], heading)
+                if link is not None:
+                    out.extend(link)
+                    i = j
+                    break
+            else:
+                return None  # A* checked every consecutive link: cannot happen
+        return simplify_path(out)
+
+    def _fail(self, reason: str) -> RouteResult:
+        return RouteResult(
+            None,
+            reason,
+            {
+                "method": "search",
+                "expanded": self.expanded,
+                "checks": self.checks,
+                "nodes": len(self.corners) + 2,
+            },
+        )
+
+
+def _link_segments(
+    a: np.ndarray, targets: np.ndarray, variant: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Segments (k, 2, 2) of the links a -> targets and the link each belongs to.
+
+    Variant 0 runs straight then 45 degrees, variant 1 45 degrees then straight; an
+    octilinear link is its one segment in both.
+    """
+    d = targets - a
+    m = np.minimum(np.abs(d[:, 0]), np.abs(d[:, 1]))
+    diag = np.sign(d) * m[:, None]
+    bend = targets - diag if variant == 0 else a + diag
+    straight = _is_octilinear(a, targets)
+    a_rep = np.broadcast_to(a, targets.shape)
+    first = np.stack([a_rep, bend], axis=1)[~straight]
+    second = np.stack([bend, targets], axis=1)[~straight]
+    direct = np.stack([a_rep, targets], axis=1)[straight]
+    owners = np.arange(len(targets))
+    segments = np.concatenate([direct, first, second]).astype(float)
+    owner = np.concatenate([owners[straight], owners[~straight], owners[~straight]])
+    return segments, owner
+
+
+def _is_octilinear(a: np.ndarray, targets: np.ndarray) -> np.ndarray:
+    d = np.abs(targets - a)
+    return (d[:, 0] == 0) | (d[:, 1] == 0) | (d[:, 0] == d[:, 1])
+
+
+def _octilinear_to(points: np.ndarray, target: Point) -> np.ndarray:
+    d = np.abs(points - np.asarray(target, dtype=points.dtype)).astype(float)
+    return d.max(axis=1) + (_ROOT2 - 1) * d.min(axis=1)

@@ -1,0 +1,293 @@
+"""The routing environment's board, held in a KiCad worker process (worker side only).
+
+A `pcbdata.env` environment owns one `KicadPool` worker; that worker keeps the instance's board
+as module-level state between tasks, so each routing step is one round trip: the environment
+sends the tracks and vias to add, the worker adds them as real KiCad items of the net and
+answers with a snapshot (KiCad's connectivity, copper totals and, when asked, KiCad's DRC under
+the instance's own project). Every return value is plain data (integer nanometres, names).
+
+The measurements reuse the evaluator's functions (`pcbdata.kicad.scoring`), so the
+environment's Phi is computed from exactly what `pcbdata eval` measures.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+
+from pcbdata.kicad.basics import board_drc_text
+from pcbdata.kicad.basics import pcbnew_module as _pcbnew
+from pcbdata.kicad.drc_report import parse_drc_report
+from pcbdata.kicad.scoring import copper_totals, pad_clusters
+
+#: The one board of this worker: {"board", "layers": {name: id}, "pads": [PAD], "path"}.
+_STATE: dict = {}
+_STAGED = [0]  # instances staged by this worker: each gets its own folder
+
+INSTANCE_FILES = {"board.kicad_pcb": ".kicad_pcb", "board.kicad_pro": ".kicad_pro",
+                  "board.kicad_dru": ".kicad_dru"}
+
+
+def _board():
+    if "board" not in _STATE:
+        raise RuntimeError("no board is open in this worker (open_instance first)")
+    return _STATE["board"]
+
+
+def _stage(board: str, project: str, rules: str | None, stage_dir: str) -> str:
+    """Copies the instance's files under one stem into a new folder of the environment's
+    private folder: KiCad loads the rules that share the board's stem and writes lock files
+    beside it. The folder is new for every instance because KiCad keeps a project it has loaded
+    by its path: a second board staged at the same path would get the first board's rules."""
+    os.makedirs(stage_dir, exist_ok=True)
+    for name in os.listdir(stage_dir):
+        shutil.rmtree(os.path.join(stage_dir, name), ignore_errors=True)
+    _STAGED[0] += 1
+    folder = os.path.join(stage_dir, str(_STAGED[0]))
+    os.makedirs(folder)
+    staged = os.path.join(folder, "board.kicad_pcb")
+    shutil.copyfile(board, staged)
+    shutil.copyfile(project, os.path.join(folder, "board.kicad_pro"))
+    if rules:
+        shutil.copyfile(rules, os.path.join(folder, "board.kicad_dru"))
+    return staged
+
+
+def open_instance(board: str, project: str, rules: str | None, stage_dir: str) -> dict:
+    """Loads an instance (replacing any board this worker held); returns its static data and
+    the first snapshot (with DRC)."""
+    pcbnew = _pcbnew()
+    _STATE.clear()
+    loaded = pcbnew.LoadBoard(_stage(board, project, rules, stage_dir))
+    if loaded is None:
+        raise ValueError(f"{board}: KiCad could not load the board")
+    loaded.BuildConnectivity()
+    layers = {loaded.GetLayerName(i): int(i) for i in loaded.GetEnabledLayers().CuStack()}
+    _STATE.update(board=loaded, layers=layers, pads=list(loaded.GetPads()))
+    return {"static": _static(loaded), "snapshot": snapshot(True)}
+
+
+def _ring(chain) -> list[tuple[int, int]]:
+    return [(int(chain.CPoint(i).x), int(chain.CPoint(i).y)) for i in range(chain.PointCount())]
+
+
+def _outline(board) -> list[list[tuple[int, int]]]:
+    """Board outline rings (outer boundaries first, then holes), nm."""
+    polys = _pcbnew().SHAPE_POLY_SET()
+    if not board.GetBoardPolygonOutlines(polys):
+        raise ValueError("the board outline (Edge.Cuts) is not a closed shape")
+    rings = [_ring(polys.COutline(i)) for i in range(polys.OutlineCount())]
+    for i in range(polys.OutlineCount()):
+        rings += [_ring(polys.CHole(i, h)) for h in range(polys.HoleCount(i))]
+    return rings
+
+
+def _net_rules(board) -> list[dict]:
+    """Every net (netcode order) with the rules its netclass resolves to (nm)."""
+    settings = board.GetDesignSettings()
+    netclasses = settings.m_NetSettings
+    out = []
+    for code, net in sorted(board.GetNetsByNetcode().items()):
+        if code <= 0:
+            continue
+        nc = netclasses.GetEffectiveNetClass(net.GetNetname())
+        out.append({"code": int(code), "name": str(net.GetNetname()),
+                    "clearance": max(int(nc.GetClearance()), int(settings.m_MinClearance)),
+                    "track_width": max(int(nc.GetTrackWidth()), int(settings.m_TrackMinWidth)),
+                    "via_diameter": int(nc.GetViaDiameter()), "via_drill": int(nc.GetViaDrill())})
+    return out
+
+
+def _polygons(poly_set) -> list[list[tuple[int, int]]]:
+    return [_ring(poly_set.COutline(i)) for i in range(poly_set.OutlineCount())]
+
+
+def _pad_record(board, pad, layers: dict[str, int]) -> dict:
+    pcbnew = _pcbnew()
+    on = [name for name, lid in layers.items() if pad.IsOnLayer(lid)]
+    principal = pad.GetPrincipalLayer()
+    size = pad.GetSize(principal)
+    shapes = {name: _polygons(pad.GetEffectivePolygon(layers[name], pcbnew.ERROR_OUTSIDE))
+              for name in on}
+    return {"net": str(pad.GetNetname()), "x": int(pad.GetPosition().x),
+            "y": int(pad.GetPosition().y), "size": (int(size.x), int(size.y)),
+            "shape": str(pad.ShowPadShape(principal)), "layers": on,
+            "drill": int(pad.GetDrillSize().x), "through_hole": pad.GetDrillSize().x > 0,
+            "orientation": float(pad.GetOrientationDegrees()),
+            "name": f"{pad.GetParentFootprint().GetReference()}:{pad.GetNumber()}",
+            "polygons": shapes}
+
+
+def _zones(board, layers: dict[str, int]) -> list[dict]:
+    out = []
+    for zone in board.Zones():
+        if zone.GetIsRuleArea():
+            continue
+        for name, lid in layers.items():
+            if zone.IsOnLayer(lid) and zone.HasFilledPolysForLayer(lid):
+                for ring in _polygons(zone.GetFilledPolysList(lid)):
+                    out.append({"net": str(zone.GetNetname()), "layer": name, "polygon": ring})
+    return out
+
+
+def _graphics(board, layers: dict[str, int]) -> list[dict]:
+    """Copper that is neither pad, track nor zone: board and footprint drawings and texts on
+    copper layers, as KiCad's own polygons (texts: their box), outlines only (holes filled)."""
+    pcbnew = _pcbnew()
+    items = list(board.GetDrawings())
+    for footprint in board.GetFootprints():
+        items += list(footprint.GraphicalItems()) + [footprint.Reference(), footprint.Value()]
+    max_error = int(board.GetDesignSettings().m_MaxError)
+    out = []
+    for item in items:
+        if hasattr(item, "IsVisible") and not item.IsVisible():
+            continue
+        net = str(item.GetNetname()) if hasattr(item, "GetNetname") else ""
+        for name, lid in layers.items():
+            if not item.IsOnLayer(lid):
+                continue
+            shape = pcbnew.SHAPE_POLY_SET()
+            item.TransformShapeToPolygon(shape, lid, 0, max_error, pcbnew.ERROR_OUTSIDE)
+            out += [{"net": net, "layer": name, "polygon": ring} for ring in _polygons(shape)
+                    if len(ring) >= 3]
+    return out
+
+
+def _static(board) -> dict:
+    settings = board.GetDesignSettings()
+    layers = _STATE["layers"]
+    return {"layers": list(layers), "outline": _outline(board), "nets": _net_rules(board),
+            "pads": [_pad_record(board, p, layers) for p in _STATE["pads"]],
+            "zones": _zones(board, layers), "graphics": _graphics(board, layers),
+            "net_count": int(board.GetNetCount()),
+            "edge_clearance": int(settings.m_CopperEdgeClearance),
+            "clearance": int(settings.m_MinClearance)}
+
+
+def _item_clusters(board, items: list) -> list[int]:
+    """A cluster label per item (pads, tracks, vias): items with the same label are joined by
+    copper of their net (KiCad's connectivity). Labels count up in `items` order."""
+    conn = board.GetConnectivity()
+    index = {item.m_Uuid.AsString(): i for i, item in enumerate(items)}
+    parent = list(range(len(items)))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i, item in enumerate(items):
+        if item.GetNetCode() <= 0:
+            continue
+        neighbours = list(conn.GetConnectedPads(item)) + list(conn.GetConnectedTracks(item))
+        for other in neighbours:
+            j = index.get(other.m_Uuid.AsString())
+            if j is not None and other.GetNetCode() == item.GetNetCode():
+                parent[find(i)] = find(j)
+    labels: dict[int, int] = {}
+    return [labels.setdefault(find(i), len(labels)) for i in range(len(items))]
+
+
+def _track_record(item, layer_names: dict[int, str], cluster: int) -> dict:
+    pcbnew = _pcbnew()
+    record = {"net": str(item.GetNetname()), "cluster": cluster}
+    if item.Type() == pcbnew.PCB_VIA_T:
+        top, bottom = item.TopLayer(), item.BottomLayer()
+        record.update(kind="via", x=int(item.GetPosition().x), y=int(item.GetPosition().y),
+                      diameter=int(item.GetWidth(top)), drill=int(item.GetDrillValue()),
+                      layers=[layer_names[top], layer_names[bottom]])
+        return record
+    record.update(kind="arc" if item.Type() == pcbnew.PCB_ARC_T else "track",
+                  layer=layer_names.get(item.GetLayer(), ""), width=int(item.GetWidth()),
+                  start=(int(item.GetStart().x), int(item.GetStart().y)),
+                  end=(int(item.GetEnd().x), int(item.GetEnd().y)))
+    if record["kind"] == "arc":
+        mid = item.GetMid()
+        record["mid"] = (int(mid.x), int(mid.y))
+    return record
+
+
+def _violations(board) -> list[dict]:
+    """KiCad's DRC as `pcbdata.kicad.scoring.drc_violations` gives it, plus the positions of
+    the items each violation names (mm, as the report prints them)."""
+    parsed = parse_drc_report(board_drc_text(board))
+    return [{"type": v.type, "severity": v.severity, "section": v.section, "nets": v.nets,
+             "no_net_item": any(i.net is None or i.net == "<no net>" for i in v.items),
+             "positions": [(i.x_mm, i.y_mm) for i in v.items]}
+            for v in parsed.violations]
+
+
+def snapshot(drc: bool = False) -> dict:
+    """The routing state: copper (tracks, vias with cluster labels), per-pad cluster labels, the
+    evaluator's measurements (clusters per net, WL, vias, net count), KiCad's unconnected count
+    and, with `drc`, KiCad's DRC violations."""
+    board = _board()
+    tracks = list(board.GetTracks())
+    labels = _item_clusters(board, _STATE["pads"] + tracks)
+    npads = len(_STATE["pads"])
+    names = {lid: name for name, lid in _STATE["layers"].items()}
+    wl_mm, vias = copper_totals(board)
+    return {"copper": [_track_record(t, names, labels[npads + i]) for i, t in enumerate(tracks)],
+            "pad_cluster": labels[:npads], "clusters": pad_clusters(board), "wl_mm": wl_mm,
+            "vias": vias, "net_count": int(board.GetNetCount()),
+            "unconnected": int(board.GetConnectivity().GetUnconnectedCount(False)),
+            "violations": _violations(board) if drc else None}
+
+
+def _add_track(board, net, layer: int, points: list, width: int) -> None:
+    pcbnew = _pcbnew()
+    for (x1, y1), (x2, y2) in zip(points, points[1:]):
+        if (x1, y1) == (x2, y2):
+            continue
+        track = pcbnew.PCB_TRACK(board)
+        track.SetStart(pcbnew.VECTOR2I(int(x1), int(y1)))
+        track.SetEnd(pcbnew.VECTOR2I(int(x2), int(y2)))
+        track.SetWidth(int(width))
+        track.SetLayer(layer)
+        track.SetNet(net)
+        board.Add(track)
+
+
+def _add_via(board, net, at: tuple, diameter: int, drill: int, top: int, bottom: int) -> None:
+    pcbnew = _pcbnew()
+    via = pcbnew.PCB_VIA(board)
+    via.SetViaType(pcbnew.VIATYPE_THROUGH)
+    via.SetPosition(pcbnew.VECTOR2I(int(at[0]), int(at[1])))
+    via.SetLayerPair(top, bottom)
+    via.SetWidth(int(diameter))
+    via.SetDrill(int(drill))
+    via.SetNet(net)
+    board.Add(via)
+
+
+def apply(edits: list[dict], drc: bool = False) -> dict:
+    """Adds tracks ({"kind": "track", net, layer, points, width}) and through vias
+    ({"kind": "via", net, at, diameter, drill}) as KiCad items; returns `snapshot(drc)`."""
+    board = _board()
+    layers = _STATE["layers"]
+    nets = board.GetNetsByName()
+    for edit in edits:
+        net = nets[edit["net"]]
+        if edit["kind"] == "track":
+            _add_track(board, net, layers[edit["layer"]], edit["points"], edit["width"])
+        else:
+            ids = list(layers.values())
+            _add_via(board, net, edit["at"], edit["diameter"], edit["drill"], ids[0], ids[-1])
+    board.BuildConnectivity()
+    return snapshot(drc)
+
+
+def save(path: str) -> str:
+    """Writes the board (the instance's own board plus the added copper) as a `.kicad_pcb`;
+    the project is not written (the evaluator uses the instance's own)."""
+    pcbnew = _pcbnew()
+    folder = os.path.dirname(os.path.abspath(path))
+    os.makedirs(folder, exist_ok=True)
+    if not pcbnew.SaveBoard(path, _board(), True):
+        raise RuntimeError(f"{path}: KiCad could not save the board")
+    return path
+
+
+def close() -> None:
+    """Forgets the board (the worker stays up for the next instance)."""
+    _STATE.clear()

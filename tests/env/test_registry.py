@@ -1,0 +1,81 @@
+"""The registry: one id per config, gymnasium's own checks on every id, bad ids and options."""
+from __future__ import annotations
+
+import warnings
+
+import gymnasium as gym
+import pytest
+from gymnasium.utils.env_checker import check_env
+
+import pcbdata.env  # noqa: F401
+from pcbdata.configs import registry
+from pcbdata.env.registry import env_id
+
+IDS = [env_id(name) for name in registry()]
+
+
+def test_one_id_per_config():
+    assert set(IDS) <= set(gym.registry)
+    assert env_id("d2") == "pcbdata/Route-d2-v0"
+    assert {"pcbdata/Route-d2-hard-v0", "pcbdata/Route-d1-g10-v0",
+            "pcbdata/Route-d3-a-v0"} <= set(IDS)
+
+
+@pytest.mark.parametrize("ident", IDS)
+def test_check_env_passes(ident, request):
+    """gymnasium's check_env (spaces, reset/step contracts, seeded determinism of reset and
+    step) on every registered id. D1/D2: boards from the generator (no set needed);
+    D3: the `d3_set` fixture (PCBDATA_D3_SET, else the real subset built from the PCBench
+    snapshot)."""
+    options = {}
+    if "-d3-" in ident:
+        options = {"root": str(_d3_root(ident, request.getfixturevalue("d3_set")))}
+    env = gym.make(ident, **options)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # check_env's warnings are failures here
+            check_env(env.unwrapped)
+    finally:
+        env.close()
+    if "-d3-" in ident:  # DRC at the end only: KiCad's DRC of a real board is the slow part
+        env = gym.make(ident, drc="terminal", **options)
+        try:
+            _random_steps(env, 100)
+        finally:
+            env.close()
+
+
+def _d3_root(ident: str, d3_set):
+    tier = ident.split("Route-", 1)[1].rsplit("-v", 1)[0]
+    if not any((d3_set / tier / "test").glob("*/board.kicad_pcb")):
+        pytest.skip(f"the D3 set {d3_set} has no {tier} test boards")
+    return d3_set
+
+
+def _random_steps(env, steps: int) -> None:
+    """Seeded masked-random actions on real boards never crash (D3: real netclasses, zones,
+    many layers)."""
+    from pcbdata.env.agents import RandomAgent
+
+    agent = RandomAgent(7)
+    obs, info = env.reset(seed=7)
+    for _ in range(steps):
+        obs, _, terminated, truncated, info = env.step(agent.act(obs, info))
+        assert "engine_failure" not in info
+        if terminated or truncated:
+            obs, info = env.reset()
+
+
+def test_wrong_id_suggests_the_closest():
+    with pytest.raises(gym.error.Error, match="Route-d2"):
+        gym.make("pcbdata/Route-d22-v0")
+
+
+def test_unknown_option_suggests_the_closest():
+    with pytest.raises(TypeError, match="did you mean 'max_steps'"):
+        gym.make("pcbdata/Route-d2-v0", max_step=10)
+
+
+def test_bad_choice_suggests_the_closest():
+    with pytest.raises(ValueError, match="did you mean 'terminal'"):
+        gym.make("pcbdata/Route-d2-v0", drc="terminl")
