@@ -12,7 +12,7 @@ from pathlib import Path
 from pcbdata.errors import UserError
 from pcbdata.evaluator.integrity import rollout_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
-from pcbdata.kicad.pool import KicadPool
+from pcbdata.executors import Executor, TaskPool, resolve
 from pcbdata.sexpr_text import cut_problem
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
@@ -95,17 +95,19 @@ def judge(bare: dict, routed: dict | None, error: str = "",
 
 
 class Evaluator:
-    """Scores routed boards with a pool of KiCad workers; reuse one for many calls.
+    """Scores routed boards with a pool of KiCad workers (`pool`, else one of `executor`,
+    default this machine's); reuse one for many calls.
 
     >>> with Evaluator(workers=2) as ev:
     ...     record = ev.score("set/d2/test/d2-test-00000", "runs/d2-test-00000/0.kicad_pcb")
     """
 
     def __init__(self, workers: int = 1, weights: Weights = DEFAULT_WEIGHTS,
-                 pool: KicadPool | None = None, task_timeout: float = 300.0):
+                 pool: TaskPool | None = None, task_timeout: float = 300.0,
+                 executor: Executor | str | None = None):
         self.weights = weights
         self._own_pool = pool is None
-        self.pool = pool or KicadPool(workers=workers, task_timeout=task_timeout)
+        self.pool = pool or resolve(executor).pool(workers=workers, task_timeout=task_timeout)
         self._bare: dict[str, dict] = {}
 
     def __enter__(self) -> Evaluator:
@@ -164,7 +166,7 @@ class Evaluator:
 
 
 def score(instance: str | Path, routed: str | Path, weights: Weights = DEFAULT_WEIGHTS,
-          pool: KicadPool | None = None) -> dict:
+          pool: TaskPool | None = None) -> dict:
     """Scores one routed `.kicad_pcb` against an instance directory (see `Evaluator.score`).
 
     Starts a KiCad worker for the call unless `pool` is given; for many calls keep an
