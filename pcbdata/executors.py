@@ -106,6 +106,7 @@ def get_executor(kind: str = "local", address: str | None = None) -> Executor:
     if kind == "local":
         return LOCAL
     if kind == "ray":
+        _ray_module()  # a missing Ray is told before anything is written
         return RayExecutor(address or None)
     raise UserError(f"unknown executor {kind!r}; choose from {', '.join(EXECUTORS)}")
 
@@ -122,10 +123,7 @@ def resolve(executor: Executor | str | None) -> Executor:
 def connect(address: str | None) -> Any:
     """The `ray` module, connected: to the cluster this process already joined, else to
     `address` (None: `RAY_ADDRESS`, else a new Ray instance on this machine)."""
-    try:
-        import ray
-    except ImportError:
-        raise UserError(RAY_INSTALL_HINT) from None
+    ray = _ray_module()
     if not ray.is_initialized():
         try:
             ray.init(address=address or os.environ.get("RAY_ADDRESS") or None,
@@ -134,6 +132,14 @@ def connect(address: str | None) -> Any:
             where = address or os.environ.get("RAY_ADDRESS") or "a new local instance"
             first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise UserError(f"cannot connect to Ray at {where}: {first}") from None
+    return ray
+
+
+def _ray_module() -> Any:
+    try:
+        import ray
+    except ImportError:
+        raise UserError(RAY_INSTALL_HINT) from None
     return ray
 
 

@@ -136,8 +136,8 @@ def _generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> 
 
 
 class _Progress:
-    def __init__(self, label: str, total: int, stream=sys.stderr):
-        self.label, self.total, self.stream = label, total, stream
+    def __init__(self, label: str, total: int, stream=None):
+        self.label, self.total, self.stream = label, total, stream or sys.stderr
         self.done, self.start, self.last = 0, time.perf_counter(), 0.0
 
     def advance(self, n: int = 1) -> None:
