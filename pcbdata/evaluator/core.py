@@ -19,6 +19,7 @@ from pcbdata.sexpr_text import cut_problem
 #: 2.0.0: copper transplanted onto the instance's board; evaluation and strict counts.
 EVALUATOR_VERSION = "2.0.0"
 MEASURE = "pcbdata.kicad.scoring:measure"
+SCORE = "pcbdata.evaluator.core:score_task"
 INSTANCE_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
 
 
@@ -94,6 +95,15 @@ def judge(bare: dict, routed: dict | None, error: str = "",
     return {"status": "ok", "reason": "", **rollout_metrics(bare, routed, weights)}
 
 
+def score_task(routed: str, directory: str, bare: dict, weights: Weights) -> dict:
+    """Worker task: measures a routed board in KiCad and judges it against its instance's
+    measurements (`bare`). Judging (integrity, metrics) in the workers keeps it off the
+    process that hands out the tasks, which is the bottleneck of a large run (docs/ray.md)."""
+    from pcbdata.kicad.scoring import measure
+
+    return judge(bare, measure(routed, directory), weights=weights)
+
+
 class Evaluator:
     """Scores routed boards with a pool of KiCad workers (`pool`, else one of `executor`,
     default this machine's); reuse one for many calls.
@@ -148,12 +158,12 @@ class Evaluator:
             if reason is not None:
                 yield index, failed_record("parse_fail", reason)
                 continue
-            jobs.append((str(routed), str(directory)))
+            jobs.append((str(routed), str(directory), bare[keys[index]], self.weights))
             job_index.append(index)
-        for outcome in self.pool.map(MEASURE, jobs):
+        for outcome in self.pool.map(SCORE, jobs):
             index = job_index[outcome.index]
-            record = judge(bare[keys[index]], outcome.value if outcome.ok else None,
-                           outcome.error, self.weights)
+            record = outcome.value if outcome.ok else judge(bare[keys[index]], None,
+                                                            outcome.error, self.weights)
             record["score_seconds"] = outcome.seconds
             yield index, record
 
