@@ -7,8 +7,9 @@ Builds (D1/D2 generation and checks, D3), `eval` and rollouts run `module:functi
     for outcome in pool.map("pcbdata.kicad.basics:drc", arg_tuples): ...
 
 - `LocalExecutor` (the default, `LOCAL`): the pool is a `KicadPool` on this machine.
-- `RayExecutor(address)`: each task is one Ray task (one CPU) that runs, on whichever node
-  Ray picks, inside a `KicadPool` worker kept by that node's Ray worker process: KiCad stays
+- `RayExecutor(address)`: tasks go as Ray tasks (one CPU; a few tasks each while much work is
+  left, see `RayPool.batch_size`) that run, on whichever node Ray picks, inside a `KicadPool`
+  worker kept by that node's Ray worker process: KiCad stays
   in an exec-started process with the same time and memory limits, recycled as locally. A
   node (or Ray worker) that dies mid-task makes Ray run the task again elsewhere
   (`max_retries`); the caller's resumable logs and the outputs it assembles (manifests,
@@ -33,6 +34,10 @@ from pcbdata.kicad.pool import KicadError, KicadPool, Outcome, memory_limit_from
 EXECUTORS = ("local", "ray")
 #: Ray tasks in flight per cluster CPU: enough that a node never waits for the driver.
 IN_FLIGHT_PER_CPU = 2
+#: At most this many tasks go in one Ray task (`RayPool.batch_size`) ...
+MAX_BATCH = 16
+#: ... while there are this many rounds of the whole cluster's work left.
+BATCH_ROUNDS = 4
 #: How often Ray runs a task again when its node or worker process dies.
 MAX_RETRIES = 3
 RAY_INSTALL_HINT = "the Ray executor needs Ray: pip install 'pcbdata[ray]' (or `pip install ray`)"
@@ -155,14 +160,15 @@ class _Settings:
 
 
 class RayPool:
-    """`KicadPool`'s interface over a Ray cluster: `map` submits one Ray task per argument
-    tuple (at most `IN_FLIGHT_PER_CPU` per cluster CPU at a time) and yields `Outcome`s as
-    they finish. `workers` is the cluster's CPU count when the pool starts."""
+    """`KicadPool`'s interface over a Ray cluster: `map` submits Ray tasks of one or a few
+    argument tuples each (`batch_size`; at most `IN_FLIGHT_PER_CPU` Ray tasks per cluster CPU
+    at a time) and yields `Outcome`s as they finish. `workers` is the cluster's CPU count when
+    the pool starts."""
 
     def __init__(self, ray: Any, settings: _Settings, max_retries: int = MAX_RETRIES):
         self._ray = ray
         self._settings = settings
-        self._remote = ray.remote(run_task).options(num_cpus=1, max_retries=max_retries,
+        self._remote = ray.remote(run_batch).options(num_cpus=1, max_retries=max_retries,
                                                     retry_exceptions=False)
         self.workers = max(1, int(ray.cluster_resources().get("CPU", 1)))
         self.memory_limit_mb = settings.memory_limit_mb
@@ -184,43 +190,45 @@ class RayPool:
     def close(self) -> None:
         """Nothing to stop: the nodes' workers end with their Ray worker processes."""
 
-    def _submit(self, ref: str, args: tuple) -> Any:
-        return self._remote.remote(ref, tuple(args), self._settings)
+    def batch_size(self, remaining: int) -> int:
+        """Tasks per Ray task: up to `MAX_BATCH` while there is work for `BATCH_ROUNDS`
+        rounds of the whole cluster, then single tasks, so the end of a run stays balanced.
+        A Ray task costs the driver about 1 ms of CPU (docs/ray.md), a scored D2 rollout
+        about 30 ms of a worker: unbatched, one driver would keep only ~30 CPUs busy."""
+        return max(1, min(MAX_BATCH, remaining // (self.workers * BATCH_ROUNDS)))
 
     def map(self, ref: str, arg_tuples: Iterable[tuple]) -> Iterator[Outcome]:
-        todo = iter(enumerate(arg_tuples))
+        todo = [tuple(args) for args in arg_tuples]
         window = self.workers * IN_FLIGHT_PER_CPU
-        running: dict[Any, int] = {}
+        running: dict[Any, list[int]] = {}
+        position = 0
         try:
-            while True:
-                failed = self._fill(ref, todo, running, window)
-                yield from failed
-                if not running:
-                    if failed:
-                        continue
-                    return
-                yield from self._collect(running)
+            while position < len(todo) or running:
+                while position < len(todo) and len(running) < window:
+                    size = self.batch_size(len(todo) - position)
+                    batch = list(range(position, position + size))
+                    position += size
+                    yield from self._submit(ref, todo, batch, running)
+                if running:
+                    yield from self._collect(running)
         finally:  # a caller that stops early: what is still running is cancelled
             for object_ref in running:
                 self._ray.cancel(object_ref, force=False)
 
-    def _fill(self, ref: str, todo: Iterator, running: dict, window: int) -> list[Outcome]:
-        """Submits tasks until `window` run; returns the outcomes of tasks that could not
-        be submitted (arguments that do not pickle, say), as `KicadPool` does."""
-        failed: list[Outcome] = []
-        while len(running) < window:
-            item = next(todo, None)
-            if item is None:
-                break
-            index, args = item
-            try:
-                running[self._submit(ref, args)] = index
-            except Exception as exc:  # noqa: BLE001 - reported like a pool's unrunnable task
-                failed.append(Outcome(index, False, None,
-                                      f"task not run: {type(exc).__name__}: {exc}"))
-                if len(failed) >= window:
-                    break
-        return failed
+    def _submit(self, ref: str, todo: list[tuple], batch: list[int],
+                running: dict) -> Iterator[Outcome]:
+        """Submits one Ray task for `batch`; a batch that cannot be sent (arguments that do
+        not pickle, say) is sent task by task, and what still fails is a failed outcome, as
+        in `KicadPool`."""
+        try:
+            running[self._remote.remote(ref, [todo[i] for i in batch], self._settings)] = batch
+            return
+        except Exception as exc:  # noqa: BLE001 - reported like a pool's unrunnable task
+            if len(batch) == 1:
+                yield Outcome(batch[0], False, None, f"task not run: {type(exc).__name__}: {exc}")
+                return
+        for index in batch:
+            yield from self._submit(ref, todo, [index], running)
 
     def _collect(self, running: dict) -> Iterator[Outcome]:
         ready, rest = self._ray.wait(list(running), num_returns=1)
@@ -228,13 +236,15 @@ class RayPool:
             more, _ = self._ray.wait(rest, num_returns=len(rest), timeout=0)
             ready += more
         for object_ref in ready:
-            index = running.pop(object_ref)
+            batch = running.pop(object_ref)
             try:
-                ok, value, error, seconds = self._ray.get(object_ref)
+                results = self._ray.get(object_ref)
             except Exception as exc:  # noqa: BLE001 - Ray gave up (retries exhausted)
-                yield Outcome(index, False, None, _ray_error(exc))
+                for index in batch:
+                    yield Outcome(index, False, None, _ray_error(exc))
                 continue
-            yield Outcome(index, ok, value if ok else None, "" if ok else error, seconds)
+            for index, (ok, value, error, seconds) in zip(batch, results, strict=True):
+                yield Outcome(index, ok, value if ok else None, "" if ok else error, seconds)
 
     def call(self, ref: str, *args) -> Any:
         [outcome] = list(self.map(ref, [args]))
@@ -273,11 +283,14 @@ def node_pool(settings: _Settings) -> KicadPool:
     return _NODE["pool"]
 
 
-def run_task(ref: str, args: tuple, settings: _Settings) -> tuple[bool, Any, str, float]:
-    """One Ray task: runs `ref(*args)` in this node's KiCad worker; (ok, value, error,
-    seconds) as in an `Outcome`."""
+def run_batch(ref: str, batch: list[tuple],
+              settings: _Settings) -> list[tuple[bool, Any, str, float]]:
+    """One Ray task: runs `ref(*args)` for each argument tuple of `batch`, one after the
+    other, in this node's KiCad worker (each under the time and memory limits); (ok, value,
+    error, seconds) of each, in order, as in an `Outcome`."""
     if settings.version != __version__:
-        return (False, None, f"this node runs pcbdata {__version__}, the driver "
-                f"{settings.version}: set every node up from the same checkout", 0.0)
-    [outcome] = list(node_pool(settings).map(ref, [args]))
-    return outcome.ok, outcome.value, outcome.error, outcome.seconds
+        error = (f"this node runs pcbdata {__version__}, the driver {settings.version}: "
+                 f"set every node up from the same checkout")
+        return [(False, None, error, 0.0)] * len(batch)
+    outcomes = sorted(node_pool(settings).map(ref, batch), key=lambda o: o.index)
+    return [(o.ok, o.value, o.error, o.seconds) for o in outcomes]

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -66,6 +67,18 @@ def test_ray_tasks_run_in_kicad_workers_under_the_limits(ray_cluster):
         assert ok.ok
         with pytest.raises(Exception, match="no good"):
             pool.call("tests.test_executors:fail", "no good")
+
+
+def test_many_tasks_go_in_batches_and_each_has_its_outcome(ray_cluster):
+    with RayExecutor().pool(task_timeout=30) as pool:
+        assert (pool.batch_size(10**6), pool.batch_size(40), pool.batch_size(7)) == (16, 5, 1)
+        args: list[tuple] = [(i,) for i in range(40)]
+        args[17] = (threading.Lock(),)  # does not pickle: its batch goes task by task
+        outcomes = sorted(pool.map("tests.test_executors:pids", args), key=lambda o: o.index)
+    assert [o.index for o in outcomes] == list(range(40))
+    assert not outcomes[17].ok and outcomes[17].error.startswith("task not run: ")
+    assert all(o.ok for o in outcomes if o.index != 17)
+    assert len({o.value[1] for o in outcomes if o.ok}) <= 3  # Ray workers, not 40 processes
 
 
 def test_a_task_whose_worker_dies_runs_again(ray_cluster, tmp_path):
