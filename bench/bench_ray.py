@@ -100,7 +100,12 @@ def main() -> None:
                         help="D2 test boards to score, 5 rollouts each")
     parser.add_argument("--empty", type=int, default=2000, help="empty tasks per executor")
     parser.add_argument("--json", help="write the figures here")
+    parser.add_argument("--project", metavar="JSON",
+                        help="only print the projection from figures saved by --json")
     args = parser.parse_args()
+    if args.project:
+        print(projection(json.loads(Path(args.project).read_text())))
+        return
     import ray
 
     cores = os.cpu_count() or 1
@@ -143,8 +148,10 @@ def main() -> None:
     ray.shutdown()
     table = summary_table(figures)
     figures["table"] = table
+    figures["projection"] = projection(figures)
     print(json.dumps(figures, indent=1))
     print(table)
+    print(figures["projection"])
     if args.json:
         Path(args.json).write_text(json.dumps(figures, indent=1) + "\n")
 
@@ -173,6 +180,46 @@ def summary_table(f: dict) -> str:
     row(f"eval, the same, local at {min(32, 8 * cores)} workers",
         v["local"]["rollouts"] + f["eval_boards"], v["local_8_per_core"], v["ray"])
     return "\n".join(rows)
+
+
+def projection(f: dict, rollouts: int = 100_000, k: int = 5, boards: int = 1_000_000) -> str:
+    """Time on paper on 10, 100 and 1000 cores from the measured per-task costs: the workers'
+    share (local core-seconds per task plus Ray's extra per task) divided by the cores, or the
+    driver's CPU per task times the tasks if that is longer (one driver process), plus the
+    driver's serial publication of a build."""
+    cores = f["cores"]
+    ev, bd = f["eval"], f["build"]
+    eval_tasks = ev["local"]["rollouts"] + f["eval_boards"]
+    per_rollout = ev["local"]["seconds"] * cores / eval_tasks
+    ray_extra = max(0.0, (ev["ray"]["seconds"] - ev["local"]["seconds"]) * cores / eval_tasks)
+    driver_rollout = ev["ray"]["driver_cpu"] / eval_tasks
+    per_board = bd["local"]["seconds"] * cores / bd["local"]["boards"]
+    ray_extra_board = max(0.0, (bd["ray"]["seconds"] - bd["local"]["seconds"]) * cores
+                          / bd["local"]["boards"])
+    driver_board = bd["ray"]["driver_cpu"] / bd["local"]["boards"]
+    publish_board = f["publish"]["seconds"] / f["publish"]["boards"]
+    tasks = rollouts + rollouts // k
+    lines = [f"per task, measured: scoring {per_rollout * 1000:.1f} ms of a core "
+             f"(+{ray_extra * 1000:.1f} ms on Ray), driver {driver_rollout * 1000:.2f} ms; "
+             f"D2 board {per_board * 1000:.2f} ms of a core (+{ray_extra_board * 1000:.2f} ms "
+             f"on Ray), driver {driver_board * 1000:.3f} ms + publication "
+             f"{publish_board * 1000:.2f} ms",
+             "",
+             f"| cores | {rollouts} rollouts ({tasks} tasks) | {boards} D2 boards: build | "
+             f"+ publication (driver) |", "|---:|---:|---:|---:|"]
+    for n in (10, 100, 1000):
+        workers = tasks * (per_rollout + ray_extra) / n
+        driver = tasks * driver_rollout
+        e = max(workers, driver)
+        b = max(boards * (per_board + ray_extra_board) / n, boards * driver_board)
+        lines.append(f"| {n} | {e:.0f} s{' (driver-bound)' if driver > workers else ''} | "
+                     f"{b:.0f} s{' (driver-bound)' if boards * driver_board > b - 1e-9 else ''}"
+                     f" | +{boards * publish_board:.0f} s |")
+    lines.append("")
+    lines.append(f"driver-bound beyond about {(per_rollout + ray_extra) / driver_rollout:.0f} "
+                 f"cores for eval and {(per_board + ray_extra_board) / driver_board:.0f} cores "
+                 f"for a build (before its publication)")
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
