@@ -150,8 +150,10 @@ class Evaluator:
     def score_many(self, pairs: list[tuple[Path, Path]]) -> Iterator[tuple[int, dict]]:
         """Yields (index, record) for each (instance directory, routed file) pair, as scored."""
         pairs = [(instance_dir(i), Path(r)) for i, r in pairs]
-        bare = self.bare_measurements(d for d, _ in pairs)
-        keys = [instance_hash(d) for d, _ in pairs]
+        directories = dict.fromkeys(d for d, _ in pairs)  # each instance hashed once
+        bare = self.bare_measurements(directories)
+        hashes = {d: instance_hash(d) for d in directories}
+        keys = [hashes[d] for d, _ in pairs]
         jobs, job_index = [], []
         for index, (directory, routed) in enumerate(pairs):
             reason = precheck(routed)

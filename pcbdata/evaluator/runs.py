@@ -364,9 +364,11 @@ def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weight
     inst_keys = {d: instance_hash(d) for _, d in instances}
     records: list[dict | None] = [None] * len(plan)
     keys: list[str] = []
+    routed_hashes: list[str] = []
     todo = []
     for i, (_, _, _, directory, path) in enumerate(plan):
         routed_hash = sha256_file(path) if path.is_file() else "missing"
+        routed_hashes.append(routed_hash)
         key = cache_key(inst_keys[directory], routed_hash, weights)
         keys.append(key)
         cached = cache.get(key) or cache.get(limit_cache_key(key, limits))
@@ -384,7 +386,7 @@ def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weight
             pairs = [(plan[i][3], plan[i][4]) for i in todo]
             for done, (j, record) in enumerate(evaluator.score_many(pairs), start=1):
                 i = todo[j]
-                record["sha256"] = sha256_file(plan[i][4]) if plan[i][4].is_file() else ""
+                record["sha256"] = "" if routed_hashes[i] == "missing" else routed_hashes[i]
                 records[i] = record
                 _cache_record(cache_file, keys[i], record, limits)
                 if progress and (done % 50 == 0 or done == len(todo)):
