@@ -37,9 +37,11 @@ def ray_cluster():
     the tests from this checkout (PYTHONPATH, inherited from here)."""
     import os
 
-    saved = {k: os.environ.get(k) for k in ("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "PYTHONPATH")}
+    saved = {k: os.environ.get(k) for k in ("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "PYTHONPATH",
+                                             "RAY_USAGE_STATS_ENABLED")}
     # Ray binds to loopback when it believes it cannot form a cluster (read at import).
     os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
+    os.environ["RAY_USAGE_STATS_ENABLED"] = "0"  # offline: no usage report
     ray = pytest.importorskip("ray", reason="Ray is not installed (pip install 'pcbdata[ray]')")
     from ray._private import ray_constants
 
