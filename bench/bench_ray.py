@@ -112,7 +112,7 @@ def main() -> None:
     cores = os.cpu_count() or 1
     load = os.getloadavg()[0]
     ray_start = time.perf_counter()
-    ray.init(num_cpus=cores, include_dashboard=False, log_to_driver=False)
+    ray.init(address="local", num_cpus=cores, include_dashboard=False, log_to_driver=False)
     figures: dict = {"machine": machine(), "load_before": load, "cores": cores,
                      "ray": ray.__version__, "ray_start_seconds": time.perf_counter() - ray_start}
     on_ray = RayExecutor()

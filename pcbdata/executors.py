@@ -89,8 +89,9 @@ LOCAL = LocalExecutor()
 
 @dataclass(frozen=True)
 class RayExecutor:
-    """A Ray cluster at `address` (None: `RAY_ADDRESS`, else a new local Ray instance), or
-    the one this process is already connected to (`ray.init` called before)."""
+    """A Ray cluster at `address` (None: `RAY_ADDRESS`, else one `ray start` began on this
+    machine, else a new local Ray instance), or the one this process is already connected
+    to (`ray.init` called before)."""
 
     address: str | None = None
     max_retries: int = MAX_RETRIES
@@ -127,7 +128,8 @@ def resolve(executor: Executor | str | None) -> Executor:
 
 def connect(address: str | None) -> Any:
     """The `ray` module, connected: to the cluster this process already joined, else to
-    `address` (None: `RAY_ADDRESS`, else a new Ray instance on this machine)."""
+    `address` (None: `RAY_ADDRESS`, else one `ray start` began on this machine, else a new
+    Ray instance on this machine)."""
     ray = _ray_module()
     if not ray.is_initialized():
         try:

@@ -49,7 +49,8 @@ def ray_cluster():
     os.environ["PYTHONPATH"] = os.pathsep.join(
         p for p in (str(REPO_ROOT), saved["PYTHONPATH"] or "") if p)
     assert not ray.is_initialized(), "a Ray cluster is already running in this process"
-    ray.init(num_cpus=2, include_dashboard=False, log_to_driver=False,
+    # address="local": always a new cluster, never one left on the machine by `ray start`
+    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
              _node_ip_address="127.0.0.1")
     try:
         yield ray

@@ -21,7 +21,8 @@ def add(parser) -> None:
     group.add_argument("--ray-address", default=os.environ.get("RAY_ADDRESS") or None,
                        metavar="ADDRESS",
                        help="the Ray cluster to join, e.g. HEAD_IP:6379 (default: RAY_ADDRESS; "
-                            "without either, a Ray instance on this machine is started)")
+                            "without either: one `ray start` began on this machine, else a new "
+                            "Ray instance on this machine)")
 
 
 def executor(args):
