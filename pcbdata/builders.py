@@ -18,6 +18,7 @@ from pathlib import Path
 
 from pcbdata.configs import SYNTHETIC_SPLITS, ConfigSpec, d1_config, d2_config
 from pcbdata.errors import UserError
+from pcbdata.executors import Executor, resolve
 from pcbdata.fsutil import output_folder
 from pcbdata.synthetic_build import (
     BuildSummary,
@@ -50,7 +51,9 @@ class SyntheticOptions:
     `check_train`: train boards checked in KiCad, evenly spread (validation and test boards are
     always all checked); `check`: False skips the KiCad checks; `workers`: processes for
     generation and checks (default: all cores); `publish`: write the parquet shards, card and
-    pictures at the end; `log`: where progress lines go (default: stderr)."""
+    pictures at the end; `log`: where progress lines go (default: stderr); `executor`: where
+    generation and checks run (`pcbdata.executors`: None or "local" for this machine's
+    worker processes, `RayExecutor(address)` or "ray" for a Ray cluster; same bytes)."""
 
     splits: list[str] | None = None
     seed: int | None = None
@@ -60,6 +63,7 @@ class SyntheticOptions:
     workers: int | None = None
     publish: bool = True
     log: Log = _stderr
+    executor: Executor | str | None = None
 
     def resolved_workers(self) -> int:
         return self.workers or os.cpu_count() or 1
@@ -112,9 +116,12 @@ def build_configs(out: str | Path, specs: list[ConfigSpec],
     configs = {spec.name: _config_info(spec, options) for spec in specs}
     output_folder(out)  # last check, first write: a refused run leaves nothing
     workers = options.resolved_workers()
-    options.log(f"pcbdata build: {', '.join(sorted(configs))} -> {out} ({workers} workers)")
+    executor = resolve(options.executor)
+    where = f"{workers} workers" if executor.name == "local" else f"executor {executor.name}"
+    options.log(f"pcbdata build: {', '.join(sorted(configs))} -> {out} ({where})")
     with locked_root(out):  # a second build into the folder waits for this one
-        summary = build_synthetic(out, jobs, configs, workers=workers, log=options.log)
+        summary = build_synthetic(out, jobs, configs, workers=workers, log=options.log,
+                                  executor=executor)
         if options.publish:
             from pcbdata.publish import publish_set
 
@@ -139,9 +146,10 @@ def build_d2(out: str | Path, level: str = "default", overrides: dict | None = N
 
 def build_d3(source: str | Path, out: str | Path, recipe: str | Path | None = None,
              workers: int | None = None, tasks_per_worker: int = 20, log: Log | None = None,
-             publish: bool = True) -> dict:
+             publish: bool = True, executor: Executor | str | None = None) -> dict:
     """D3 from a PCBench checkout at `source` with the recipe at `recipe` (default: the
-    packaged one); returns the summary (fates, tier counts, wall seconds)."""
+    packaged one); returns the summary (fates, tier counts, wall seconds). The boards run on
+    `executor` (default: this machine's workers; see `SyntheticOptions`)."""
     from pcbdata.curation.build import build
     from pcbdata.curation.recipe import load_recipe
 
@@ -161,7 +169,7 @@ def build_d3(source: str | Path, out: str | Path, recipe: str | Path | None = No
     with folder_lock(out, "built"):  # a second build into the folder waits for this one
         summary = build(source, out, recipe_data,
                         workers=workers or min(os.cpu_count() or 1, MAX_WORKERS), log=log,
-                        tasks_per_worker=tasks_per_worker)
+                        tasks_per_worker=tasks_per_worker, executor=resolve(executor))
         if publish:
             from pcbdata.publish import publish_set
 

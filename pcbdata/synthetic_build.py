@@ -18,10 +18,10 @@ from pathlib import Path
 
 from pcbdata import __version__
 from pcbdata.errors import EngineError, GenerationError, UserError, ValidationError
+from pcbdata.executors import Executor, TaskPool, resolve
 from pcbdata.fsutil import folder_lock, remove_stale_temps, write_atomic, write_dir_atomic
 from pcbdata.generators.base import Generator, SplitArrays
 from pcbdata.hashing import sha256_bytes
-from pcbdata.kicad import KicadPool
 from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.kicad_writer import board_files
 from pcbdata.manifest import FORMAT, merge_configs, write_manifest
@@ -136,8 +136,8 @@ def _generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> 
 
 
 class _Progress:
-    def __init__(self, label: str, total: int, stream=sys.stderr):
-        self.label, self.total, self.stream = label, total, stream
+    def __init__(self, label: str, total: int, stream=None):
+        self.label, self.total, self.stream = label, total, stream or sys.stderr
         self.done, self.start, self.last = 0, time.perf_counter(), 0.0
 
     def advance(self, n: int = 1) -> None:
@@ -215,13 +215,16 @@ def check_problem(report: DrcReport, expected_unconnected: int) -> str | None:
 
 def build_synthetic(root: str | Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
                     workers: int | None = None, log: Callable[[str], None] | None = None,
-                    task_timeout: float = 120.0) -> BuildSummary:
+                    task_timeout: float = 120.0,
+                    executor: Executor | str | None = None) -> BuildSummary:
+    """Builds `jobs` into `root`; tasks run on `executor` (default: this machine's workers;
+    `pcbdata.executors`), with the same bytes whichever runs them."""
     with locked_root(root) as folder:
-        return _build_locked(folder, jobs, configs, workers, task_timeout)
+        return _build_locked(folder, jobs, configs, workers, task_timeout, resolve(executor))
 
 
 def _build_locked(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
-                  workers: int | None, task_timeout: float) -> BuildSummary:
+                  workers: int | None, task_timeout: float, executor: Executor) -> BuildSummary:
     workers = max(1, workers or os.cpu_count() or 1)
     started = time.perf_counter()
     _prepare_root(root)
@@ -229,7 +232,7 @@ def _build_locked(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInf
     entries: dict[tuple[str, str], list[dict]] = {}
     # Generation needs no KiCad but runs in the same exec-started workers: they never
     # re-import the caller's __main__ and die with this process (multiprocessing's would not).
-    with KicadPool(workers=workers, task_timeout=_GENERATE_TIMEOUT) as pool:
+    with executor.pool(workers=workers, task_timeout=_GENERATE_TIMEOUT) as pool:
         for job in jobs:
             seed = configs[job.config].seed
             progress = _Progress(f"{job.config}/{job.split} write", job.count)
@@ -251,7 +254,8 @@ def _build_locked(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInf
                 data = job.generator.split_arrays([r["board_id"] for r in results],
                                                   [r["array_row"] for r in results])
                 write_atomic(arrays_path(root, job.config, job.split), data)
-    _check_in_kicad(root, jobs, configs, entries, workers, summary, task_timeout)
+    _check_in_kicad(root, jobs, configs, entries, summary,
+                    lambda: executor.pool(workers=workers, task_timeout=task_timeout))
     summary.seconds = time.perf_counter() - started
     if summary.engine_failures:
         board, reason = summary.engine_failures[0]
@@ -304,8 +308,8 @@ def _remove_extra_boards(split_dir: Path, keep: set[str]) -> None:
 
 
 def _check_in_kicad(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
-                    entries, workers: int,
-                    summary: BuildSummary, task_timeout: float) -> None:
+                    entries, summary: BuildSummary, engine: Callable[[], TaskPool]) -> None:
+    """Checks the boards not checked yet, in a pool made by `engine`."""
     checks = _CheckLog(root)
     todo = []  # (relative board path, sha, expected unconnected, description)
     for job in jobs:
@@ -326,7 +330,7 @@ def _check_in_kicad(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigI
         return
     progress = _Progress("KiCad check", len(todo))
     try:
-        with KicadPool(workers=workers, task_timeout=task_timeout) as pool:
+        with engine() as pool:
             args = [_drc_args(root, rel) for rel, *_ in todo]
             for outcome in pool.map("pcbdata.kicad.basics:drc", args):
                 rel, sha, expected, job = todo[outcome.index]

@@ -77,3 +77,36 @@ def real_subset(tmp_path_factory, kicad_pool):
     out = root / "out"
     summary = build(sub, out, load_recipe(), pool=kicad_pool, log=lambda line: None)
     return {"out": out, "summary": summary, "names": names}
+
+
+@pytest.fixture(scope="session")
+def ray_cluster():
+    """A Ray cluster of 2 CPUs on this machine, loopback only, for the whole session; skips
+    where Ray is not installed (`pip install 'pcbdata[ray]'`). Its workers import pcbdata and
+    the tests from this checkout (PYTHONPATH, inherited from here)."""
+    import os
+
+    saved = {k: os.environ.get(k) for k in ("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "PYTHONPATH",
+                                             "RAY_USAGE_STATS_ENABLED")}
+    # Ray binds to loopback when it believes it cannot form a cluster (read at import).
+    os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
+    os.environ["RAY_USAGE_STATS_ENABLED"] = "0"  # offline: no usage report
+    ray = pytest.importorskip("ray", reason="Ray is not installed (pip install 'pcbdata[ray]')")
+    from ray._private import ray_constants
+
+    ray_constants.ENABLE_RAY_CLUSTER = False  # in case Ray was imported before
+    os.environ["PYTHONPATH"] = os.pathsep.join(
+        p for p in (str(REPO_ROOT), saved["PYTHONPATH"] or "") if p)
+    assert not ray.is_initialized(), "a Ray cluster is already running in this process"
+    # address="local": always a new cluster, never one left on the machine by `ray start`
+    ray.init(address="local", num_cpus=2, include_dashboard=False, log_to_driver=False,
+             _node_ip_address="127.0.0.1")
+    try:
+        yield ray
+    finally:
+        ray.shutdown()
+        for key, value in saved.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value

@@ -5,6 +5,7 @@ import os
 
 from pcbdata.builders import MAX_COUNT
 from pcbdata.cli import _checks as checks
+from pcbdata.cli import _executor_options
 from pcbdata.configs import SYNTHETIC_SPLITS as SPLITS
 from pcbdata.errors import UserError
 
@@ -27,6 +28,7 @@ def add_common(parser) -> None:
                              "validation and test boards are always all checked)")
     parser.add_argument("--no-check", action="store_true",
                         help="skip the KiCad checks (the manifest records 0 checked boards)")
+    _executor_options.add(parser)
 
 
 def parse_splits(text: str) -> list[str]:
@@ -44,4 +46,4 @@ def options(args):
 
     return SyntheticOptions(splits=parse_splits(args.splits), seed=args.seed, count=args.count,
                             check_train=args.check_train, check=not args.no_check,
-                            workers=args.workers)
+                            workers=args.workers, executor=_executor_options.executor(args))

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 from pcbdata.cli import _checks as checks
+from pcbdata.cli import _executor_options
 
 FAMILY = "d3"
 HELP = "curate the D3 real-board set (tiers D3-A/B/C) from a PCBench checkout"
@@ -19,6 +20,7 @@ def register(parser) -> None:
     parser.add_argument("--tasks-per-worker", type=checks.positive, default=20, metavar="N",
                         help="recycle a KiCad worker after N boards (memory; default 20)")
     parser.add_argument("--quiet", action="store_true", help="only print the summary")
+    _executor_options.add(parser)
     parser.set_defaults(run=run)
 
 
@@ -30,7 +32,8 @@ def run(args) -> int:
     log = (lambda line: None if not line.startswith("d3:") else
            print(line, file=sys.stderr, flush=True)) if args.quiet else None
     summary = build_d3(args.source, args.out, args.recipe, workers=args.workers,
-                       tasks_per_worker=args.tasks_per_worker, log=log)
+                       tasks_per_worker=args.tasks_per_worker, log=log,
+                       executor=_executor_options.executor(args))
     print("fates: " + ", ".join(f"{k}={v}" for k, v in summary["fates"].items()))
     print("tiers: " + ", ".join(f"{c}={n['full']} test={n['test']}"
                                 for c, n in summary["tiers"].items()))

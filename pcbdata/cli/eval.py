@@ -4,6 +4,7 @@ from __future__ import annotations
 import os
 
 from pcbdata.cli import _checks as checks
+from pcbdata.cli import _executor_options
 
 VERB = "eval"
 HELP = "score routed boards against a built board set (CP, Pot., Rout., DRV, WL, Via, Time)"
@@ -39,6 +40,7 @@ def register(parser) -> None:
     parser.add_argument("--lw", type=checks.weight, default=0.002,
                         help="potential weight per mm of WL")
     parser.add_argument("--lv", type=checks.weight, default=0.1, help="potential weight per via")
+    _executor_options.add(parser)
     parser.set_defaults(run=run)
 
 
@@ -49,6 +51,7 @@ def run(args) -> int:
     result = evaluate_set(args.dir, args.config, args.split, args.out, runs=args.runs,
                           k=args.k, reference=args.reference, workers=args.workers,
                           weights=Weights(lw=args.lw, lv=args.lv), name=args.name,
-                          task_timeout=args.timeout, limit=args.limit)
+                          task_timeout=args.timeout, limit=args.limit,
+                          executor=_executor_options.executor(args))
     print(result["table"], end="")
     return 0

@@ -29,10 +29,11 @@ from pcbdata.curation import corpus
 from pcbdata.curation.picks import COLUMNS, Row, assign_tiers, evaluation_subsets, number_rows
 from pcbdata.curation.recipe import KeepCriteria, Recipe
 from pcbdata.errors import EngineError, UserError
+from pcbdata.executors import Executor, TaskPool, resolve
 from pcbdata.fsutil import folder_lock, remove_stale_temps, write_atomic, write_dir_atomic
 from pcbdata.hashing import sha256_bytes, sha256_text
 from pcbdata.kicad.drc_report import DrcReport
-from pcbdata.kicad.pool import KicadError, KicadPool, Outcome, is_limit_error
+from pcbdata.kicad.pool import KicadError, Outcome, is_limit_error
 from pcbdata.manifest import FORMAT, d3_facts, merge_configs, read_manifest, write_manifest
 from pcbdata.sexpr_text import cut_problem
 from pcbdata.textio import canonical_json, csv_text
@@ -141,7 +142,7 @@ def _write_if_changed(path: Path, data: bytes | str) -> None:
     write_atomic(path, raw)
 
 
-def _engine_kicad_version(pool: KicadPool) -> str:
+def _engine_kicad_version(pool: TaskPool) -> str:
     """KiCad's version from a worker (it starts one), under a limit of at least 2 minutes
     whatever the per-board limit."""
     saved = pool.task_timeout
@@ -159,17 +160,23 @@ def _stderr(line: str) -> None:
 
 
 def build(source: str | Path, out: str | Path, recipe: Recipe, workers: int = 2,
-          log: Log | None = None, pool: KicadPool | None = None,
-          tasks_per_worker: int = 20) -> dict:
+          log: Log | None = None, pool: TaskPool | None = None,
+          tasks_per_worker: int = 20, executor: Executor | str | None = None) -> dict:
     """Builds the D3 set of `source` into `out`; returns the summary (fate and tier counts).
 
     `tasks_per_worker`: KiCad keeps memory between boards (tens of MB each), so workers are
-    recycled after this many boards; it does not change the output. The folder is locked
+    recycled after this many boards; it does not change the output. The boards run on `pool`,
+    else on a pool of `executor` (default: this machine's workers). The folder is locked
     for the build (`fsutil.folder_lock`): a second build into it waits.
     """
     with folder_lock(out, "built"):  # a second build into the folder waits for this one
-        return _build(Path(source), Path(out), recipe, workers, log or _stderr, pool,
-                      tasks_per_worker)
+        if pool is None:
+            pool = resolve(executor).pool(workers=workers,
+                                          task_timeout=recipe.engine.task_timeout_s,
+                                          tasks_per_worker=tasks_per_worker)
+            with pool:
+                return _build(Path(source), Path(out), recipe, log or _stderr, pool)
+        return _build(Path(source), Path(out), recipe, log or _stderr, pool)
 
 
 def limit_state_key(key: str, pool) -> str:
@@ -189,8 +196,7 @@ def _cut_board(board: corpus.SourceBoard) -> dict | None:
             "error_types": {}, "unconnected": 0, "seconds": 0.0}
 
 
-def _build(source: Path, out: Path, recipe: Recipe, workers: int, log: Log,
-           pool: KicadPool | None, tasks_per_worker: int) -> dict:
+def _build(source: Path, out: Path, recipe: Recipe, log: Log, pool: TaskPool) -> dict:
     out.mkdir(parents=True, exist_ok=True)
     remove_stale_temps(out)
     started = time.perf_counter()
@@ -205,21 +211,13 @@ def _build(source: Path, out: Path, recipe: Recipe, workers: int, log: Log,
             log(f"d3: warning: {b.name}: {note}")
     _retract_manifest(out)
 
-    own_pool = pool is None
-    if pool is None:
-        pool = KicadPool(workers=workers, task_timeout=recipe.engine.task_timeout_s,
-                         tasks_per_worker=tasks_per_worker)
-    try:
-        kicad_version = _engine_kicad_version(pool)
-        wanted = recipe.engine.kicad_version
-        if wanted and not kicad_version.startswith(wanted):
-            log(f"d3: warning: the recipe was made with KiCad {wanted}, this is KiCad "
-                f"{kicad_version}; verdicts may differ (the manifest records the version)")
-        store = StateStore(out)
-        states = _process(boards, recipe, kicad_version, store, pool, log)
-    finally:
-        if own_pool:
-            pool.close()
+    kicad_version = _engine_kicad_version(pool)
+    wanted = recipe.engine.kicad_version
+    if wanted and not kicad_version.startswith(wanted):
+        log(f"d3: warning: the recipe was made with KiCad {wanted}, this is KiCad "
+            f"{kicad_version}; verdicts may differ (the manifest records the version)")
+    store = StateStore(out)
+    states = _process(boards, recipe, kicad_version, store, pool, log)
 
     summary = _finish(source, out, recipe, boards, states, store, kicad_version)
     summary["wall_seconds"] = round(time.perf_counter() - started, 1)
@@ -233,7 +231,7 @@ def _build(source: Path, out: Path, recipe: Recipe, workers: int, log: Log,
 
 
 def _process(boards: list[corpus.SourceBoard], recipe: Recipe, kicad_version: str,
-             store: StateStore, pool: KicadPool, log: Log) -> dict[str, dict]:
+             store: StateStore, pool: TaskPool, log: Log) -> dict[str, dict]:
     """The state of every board: known without KiCad, resumed, or made by an engine task."""
     states: dict[str, dict] = {}
     todo = []

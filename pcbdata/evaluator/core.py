@@ -12,13 +12,14 @@ from pathlib import Path
 from pcbdata.errors import UserError
 from pcbdata.evaluator.integrity import rollout_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
-from pcbdata.kicad.pool import KicadPool
+from pcbdata.executors import Executor, TaskPool, resolve
 from pcbdata.sexpr_text import cut_problem
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
 #: 2.0.0: copper transplanted onto the instance's board; evaluation and strict counts.
 EVALUATOR_VERSION = "2.0.0"
 MEASURE = "pcbdata.kicad.scoring:measure"
+SCORE = "pcbdata.evaluator.core:score_task"
 INSTANCE_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
 
 
@@ -94,18 +95,29 @@ def judge(bare: dict, routed: dict | None, error: str = "",
     return {"status": "ok", "reason": "", **rollout_metrics(bare, routed, weights)}
 
 
+def score_task(routed: str, directory: str, bare: dict, weights: Weights) -> dict:
+    """Worker task: measures a routed board in KiCad and judges it against its instance's
+    measurements (`bare`). Judging (integrity, metrics) in the workers keeps it off the
+    process that hands out the tasks, which is the bottleneck of a large run (docs/ray.md)."""
+    from pcbdata.kicad.scoring import measure
+
+    return judge(bare, measure(routed, directory), weights=weights)
+
+
 class Evaluator:
-    """Scores routed boards with a pool of KiCad workers; reuse one for many calls.
+    """Scores routed boards with a pool of KiCad workers (`pool`, else one of `executor`,
+    default this machine's); reuse one for many calls.
 
     >>> with Evaluator(workers=2) as ev:
     ...     record = ev.score("set/d2/test/d2-test-00000", "runs/d2-test-00000/0.kicad_pcb")
     """
 
     def __init__(self, workers: int = 1, weights: Weights = DEFAULT_WEIGHTS,
-                 pool: KicadPool | None = None, task_timeout: float = 300.0):
+                 pool: TaskPool | None = None, task_timeout: float = 300.0,
+                 executor: Executor | str | None = None):
         self.weights = weights
         self._own_pool = pool is None
-        self.pool = pool or KicadPool(workers=workers, task_timeout=task_timeout)
+        self.pool = pool or resolve(executor).pool(workers=workers, task_timeout=task_timeout)
         self._bare: dict[str, dict] = {}
 
     def __enter__(self) -> Evaluator:
@@ -138,20 +150,22 @@ class Evaluator:
     def score_many(self, pairs: list[tuple[Path, Path]]) -> Iterator[tuple[int, dict]]:
         """Yields (index, record) for each (instance directory, routed file) pair, as scored."""
         pairs = [(instance_dir(i), Path(r)) for i, r in pairs]
-        bare = self.bare_measurements(d for d, _ in pairs)
-        keys = [instance_hash(d) for d, _ in pairs]
+        directories = dict.fromkeys(d for d, _ in pairs)  # each instance hashed once
+        bare = self.bare_measurements(directories)
+        hashes = {d: instance_hash(d) for d in directories}
+        keys = [hashes[d] for d, _ in pairs]
         jobs, job_index = [], []
         for index, (directory, routed) in enumerate(pairs):
             reason = precheck(routed)
             if reason is not None:
                 yield index, failed_record("parse_fail", reason)
                 continue
-            jobs.append((str(routed), str(directory)))
+            jobs.append((str(routed), str(directory), bare[keys[index]], self.weights))
             job_index.append(index)
-        for outcome in self.pool.map(MEASURE, jobs):
+        for outcome in self.pool.map(SCORE, jobs):
             index = job_index[outcome.index]
-            record = judge(bare[keys[index]], outcome.value if outcome.ok else None,
-                           outcome.error, self.weights)
+            record = outcome.value if outcome.ok else judge(bare[keys[index]], None,
+                                                            outcome.error, self.weights)
             record["score_seconds"] = outcome.seconds
             yield index, record
 
@@ -164,7 +178,7 @@ class Evaluator:
 
 
 def score(instance: str | Path, routed: str | Path, weights: Weights = DEFAULT_WEIGHTS,
-          pool: KicadPool | None = None) -> dict:
+          pool: TaskPool | None = None) -> dict:
     """Scores one routed `.kicad_pcb` against an instance directory (see `Evaluator.score`).
 
     Starts a KiCad worker for the call unless `pool` is given; for many calls keep an

@@ -20,6 +20,7 @@ from pathlib import Path
 from pcbdata.errors import UserError
 from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, instance_hash, sha256_file
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, pick_best
+from pcbdata.executors import Executor
 from pcbdata.fsutil import folder_lock, write_atomic
 from pcbdata.kicad.pool import is_limit_error, memory_limit_from_env
 
@@ -297,11 +298,13 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                  runs: str | Path | None = None, k: int = 5, reference: bool = False,
                  workers: int = 1, weights: Weights = DEFAULT_WEIGHTS, name: str | None = None,
                  task_timeout: float = 300.0, progress: bool = True,
-                 limit: int | None = None) -> dict:
+                 limit: int | None = None, executor: Executor | str | None = None) -> dict:
     """Scores a submission (or the reference boards) on one config/split; writes REPORT files
     and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl` (time and
     memory limits hit too, under the same limits). `limit` scores only the first N boards of
-    the split (in board-id order). A second call on the same `out` waits for the first."""
+    the split (in board-id order). A second call on the same `out` waits for the first.
+    The boards are scored on `executor` (default: this machine's workers; `pcbdata.executors`;
+    `workers` is the local executor's), with the same report whichever scores them."""
     root, out = Path(root), Path(out)
     _check_arguments(k, workers, weights, task_timeout, limit, name)
     if reference == (runs is not None):
@@ -317,7 +320,8 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
         Path(runs), [b for b, _ in every], [b for b, _ in instances], k)
     out.mkdir(parents=True, exist_ok=True)
     with folder_lock(out, "written"):  # a second eval into REPORT waits: reports never mix
-        records = _score_plan(plan, instances, out, weights, workers, task_timeout, progress)
+        records = _score_plan(plan, instances, out, weights, workers, task_timeout, progress,
+                              executor)
         rollout_rows = _rollout_rows(plan, records, reference, warnings)
         if warnings and progress:
             _print_warnings(warnings, Path(runs))
@@ -357,7 +361,8 @@ def _plan(instances: list[tuple[str, Path]], runs: Path | None, k: int) -> Plan:
 
 
 def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weights: Weights,
-                workers: int, task_timeout: float, progress: bool) -> list[dict]:
+                workers: int, task_timeout: float, progress: bool,
+                executor: Executor | str | None = None) -> list[dict]:
     """The record of every rollout of `plan`: from the cache, else scored (and cached)."""
     cache_path = out / CACHE_NAME
     cache = load_cache(cache_path)
@@ -365,9 +370,11 @@ def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weight
     inst_keys = {d: instance_hash(d) for _, d in instances}
     records: list[dict | None] = [None] * len(plan)
     keys: list[str] = []
+    routed_hashes: list[str] = []
     todo = []
     for i, (_, _, _, directory, path) in enumerate(plan):
         routed_hash = sha256_file(path) if path.is_file() else "missing"
+        routed_hashes.append(routed_hash)
         key = cache_key(inst_keys[directory], routed_hash, weights)
         keys.append(key)
         cached = cache.get(key) or cache.get(limit_cache_key(key, limits))
@@ -379,13 +386,13 @@ def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weight
         print(f"pcbdata eval: {len(plan)} rollouts on {len(instances)} boards; "
               f"{len(plan) - len(todo)} cached, {len(todo)} to score", file=sys.stderr)
     if todo:
-        with Evaluator(workers=workers, weights=weights,
-                       task_timeout=task_timeout) as evaluator, \
+        with Evaluator(workers=workers, weights=weights, task_timeout=task_timeout,
+                       executor=executor) as evaluator, \
                 open(cache_path, "a", encoding="utf-8") as cache_file:
             pairs = [(plan[i][3], plan[i][4]) for i in todo]
             for done, (j, record) in enumerate(evaluator.score_many(pairs), start=1):
                 i = todo[j]
-                record["sha256"] = sha256_file(plan[i][4]) if plan[i][4].is_file() else ""
+                record["sha256"] = "" if routed_hashes[i] == "missing" else routed_hashes[i]
                 records[i] = record
                 _cache_record(cache_file, keys[i], record, limits)
                 if progress and (done % 50 == 0 or done == len(todo)):
