@@ -13,6 +13,7 @@ from pcbdata.errors import UserError
 from pcbdata.evaluator.integrity import rollout_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
 from pcbdata.executors import Executor, TaskPool, resolve
+from pcbdata.hashing import sha256_file
 from pcbdata.sexpr_text import cut_problem
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
@@ -21,14 +22,6 @@ EVALUATOR_VERSION = "2.0.0"
 MEASURE = "pcbdata.kicad.scoring:measure"
 SCORE = "pcbdata.evaluator.core:score_task"
 INSTANCE_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
-
-
-def sha256_file(path: str | Path) -> str:
-    digest = hashlib.sha256()
-    with open(path, "rb") as handle:
-        for block in iter(lambda: handle.read(1 << 20), b""):
-            digest.update(block)
-    return digest.hexdigest()
 
 
 def instance_dir(instance: str | Path) -> Path:
@@ -132,11 +125,14 @@ class Evaluator:
 
     def bare_measurements(self, directories: Iterable[Path]) -> dict[str, dict]:
         """Measurements of the instances' own boards, keyed by instance hash (memoised)."""
+        return self._measure_bare({Path(d): instance_hash(d) for d in directories})
+
+    def _measure_bare(self, hashes: dict[Path, str]) -> dict[str, dict]:
+        """`bare_measurements` of instances whose hashes are known (directory -> hash)."""
         todo = {}
-        for directory in directories:
-            key = instance_hash(directory)
+        for directory, key in hashes.items():
             if key not in self._bare and key not in todo:
-                todo[key] = Path(directory)
+                todo[key] = directory
         keys = list(todo)
         jobs = [(str(todo[k] / "board.kicad_pcb"), str(todo[k])) for k in keys]
         for outcome in self.pool.map(MEASURE, jobs):
@@ -150,9 +146,8 @@ class Evaluator:
     def score_many(self, pairs: list[tuple[Path, Path]]) -> Iterator[tuple[int, dict]]:
         """Yields (index, record) for each (instance directory, routed file) pair, as scored."""
         pairs = [(instance_dir(i), Path(r)) for i, r in pairs]
-        directories = dict.fromkeys(d for d, _ in pairs)  # each instance hashed once
-        bare = self.bare_measurements(directories)
-        hashes = {d: instance_hash(d) for d in directories}
+        hashes = {d: instance_hash(d) for d in dict.fromkeys(d for d, _ in pairs)}  # once each
+        bare = self._measure_bare(hashes)
         keys = [hashes[d] for d, _ in pairs]
         jobs, job_index = [], []
         for index, (directory, routed) in enumerate(pairs):

@@ -18,10 +18,11 @@ import sys
 from pathlib import Path
 
 from pcbdata.errors import UserError
-from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, instance_hash, sha256_file
+from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, instance_hash
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, pick_best
 from pcbdata.executors import Executor
 from pcbdata.fsutil import folder_lock, write_atomic
+from pcbdata.hashing import sha256_file
 from pcbdata.kicad.pool import is_limit_error, memory_limit_from_env
 
 TIME_KEYS = ("time_s", "time", "seconds", "wall_time_s")
