@@ -305,6 +305,10 @@ class KicadPool:
                 done.put(Outcome(index, ok, value if ok else None, "" if ok else str(value),
                                  seconds))
 
+        if count == 1:  # one task (e.g. each environment step): no thread to start and join
+            serve(self._slots[0])
+            yield done.get()
+            return
         threads = [threading.Thread(target=serve, args=(slot,), daemon=True)
                    for slot in self._slots[: max(1, min(self.workers, count))]]
         for thread in threads:

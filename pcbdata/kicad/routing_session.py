@@ -17,7 +17,7 @@ import shutil
 from pcbdata.kicad.basics import board_drc_text
 from pcbdata.kicad.basics import pcbnew_module as _pcbnew
 from pcbdata.kicad.drc_report import parse_drc_report
-from pcbdata.kicad.scoring import copper_totals, pad_clusters
+from pcbdata.kicad.scoring import clusters_per_net, copper_labels, copper_totals
 
 #: The one board of this worker: {"board", "layers": {name: id}, "pads": [PAD], "path"}.
 _STATE: dict = {}
@@ -163,31 +163,6 @@ def _static(board) -> dict:
             "clearance": int(settings.m_MinClearance)}
 
 
-def _item_clusters(board, items: list) -> list[int]:
-    """A cluster label per item (pads, tracks, vias): items with the same label are joined by
-    copper of their net (KiCad's connectivity). Labels count up in `items` order."""
-    conn = board.GetConnectivity()
-    index = {item.m_Uuid.AsString(): i for i, item in enumerate(items)}
-    parent = list(range(len(items)))
-
-    def find(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for i, item in enumerate(items):
-        if item.GetNetCode() <= 0:
-            continue
-        neighbours = list(conn.GetConnectedPads(item)) + list(conn.GetConnectedTracks(item))
-        for other in neighbours:
-            j = index.get(other.m_Uuid.AsString())
-            if j is not None and other.GetNetCode() == item.GetNetCode():
-                parent[find(i)] = find(j)
-    labels: dict[int, int] = {}
-    return [labels.setdefault(find(i), len(labels)) for i in range(len(items))]
-
-
 def _track_record(item, layer_names: dict[int, str], cluster: int) -> dict:
     pcbnew = _pcbnew()
     record = {"net": str(item.GetNetname()), "cluster": cluster}
@@ -222,13 +197,16 @@ def snapshot(drc: bool = False) -> dict:
     evaluator's measurements (clusters per net, WL, vias, net count), KiCad's unconnected count
     and, with `drc`, KiCad's DRC violations."""
     board = _board()
-    tracks = list(board.GetTracks())
-    labels = _item_clusters(board, _STATE["pads"] + tracks)
-    npads = len(_STATE["pads"])
+    tracks, pads = list(board.GetTracks()), _STATE["pads"]
+    # One clustering gives the env's labels and the evaluator's per-net counts (`pad_clusters`
+    # is the same function over the same items), so finish targets and U agree with `eval`.
+    labels = copper_labels(board, pads + tracks + list(board.Zones()))
+    npads = len(pads)
     names = {lid: name for name, lid in _STATE["layers"].items()}
     wl_mm, vias = copper_totals(board)
     return {"copper": [_track_record(t, names, labels[npads + i]) for i, t in enumerate(tracks)],
-            "pad_cluster": labels[:npads], "clusters": pad_clusters(board), "wl_mm": wl_mm,
+            "pad_cluster": labels[:npads], "clusters": clusters_per_net(pads, labels[:npads]),
+            "wl_mm": wl_mm,
             "vias": vias, "net_count": int(board.GetNetCount()),
             "unconnected": int(board.GetConnectivity().GetUnconnectedCount(False)),
             "violations": _violations(board) if drc else None}

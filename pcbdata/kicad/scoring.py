@@ -336,45 +336,54 @@ def fingerprint(board, folder: str) -> dict[str, list[str]]:
 
 # ---- measurements on the transplanted board ---------------------------------------------------
 
-def pad_clusters(board) -> dict[str, int]:
-    """Per net name: the number of connected copper clusters of that net holding >= 1 pad."""
+def copper_labels(board, items: list) -> list[int]:
+    """A cluster label per item of `items` (pads, tracks, vias, zones): items with one label
+    are joined by copper of their net, as KiCad's connectivity links them. Labels count up in
+    `items` order; an item without a net gets a label of its own.
+
+    Every link touches a track, via or zone, except pad-to-pad contact: tracks and zones ask
+    for both kinds of neighbours, pads only for pads (the same links, found once)."""
+    pcbnew = _pcbnew()
     conn = board.GetConnectivity()
-    parent: dict[str, str] = {}
+    index = {item.m_Uuid.AsString(): i for i, item in enumerate(items)}
+    parent = list(range(len(items)))
 
-    def find(key: str) -> str:
-        root = key
-        while parent.get(root, root) != root:
-            root = parent[root]
-        while parent.get(key, key) != root:
-            parent[key], key = root, parent[key]
-        return root
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
 
-    def union(a: str, b: str) -> None:
-        ra, rb = find(a), find(b)
-        if ra != rb:
-            parent[ra] = rb
-
-    # Every link touches a track, via or zone, except pad-to-pad contact: tracks and zones ask
-    # for both kinds of neighbours, pads only for pads.
-    items = [(item, True) for item in list(board.GetTracks()) + list(board.Zones())]
-    items += [(pad, False) for pad in board.GetPads()]
-    for item, any_kind in items:
+    for i, item in enumerate(items):
         net = item.GetNetCode()
         if net <= 0:
             continue
-        key = item.m_Uuid.AsString()
         neighbours = list(conn.GetConnectedPads(item))
-        if any_kind:
+        if item.Type() != pcbnew.PCB_PAD_T:
             neighbours += list(conn.GetConnectedTracks(item))
         for other in neighbours:
-            if other.GetNetCode() == net:
-                union(key, other.m_Uuid.AsString())
-    clusters: dict[str, set[str]] = {}
-    for pad in board.GetPads():
-        if pad.GetNetCode() <= 0:
-            continue
-        clusters.setdefault(pad.GetNetname(), set()).add(find(pad.m_Uuid.AsString()))
-    return {net: len(roots) for net, roots in sorted(clusters.items())}
+            j = index.get(other.m_Uuid.AsString())
+            if j is not None and other.GetNetCode() == net:
+                parent[find(i)] = find(j)
+    labels: dict[int, int] = {}
+    return [labels.setdefault(find(i), len(labels)) for i in range(len(items))]
+
+
+def clusters_per_net(pads: list, pad_labels: list[int]) -> dict[str, int]:
+    """Per net name: how many distinct copper clusters (`copper_labels` of the pads) hold its
+    pads; pads without a net are left out."""
+    clusters: dict[str, set[int]] = {}
+    for pad, label in zip(pads, pad_labels):
+        if pad.GetNetCode() > 0:
+            clusters.setdefault(str(pad.GetNetname()), set()).add(label)
+    return {net: len(labels) for net, labels in sorted(clusters.items())}
+
+
+def pad_clusters(board) -> dict[str, int]:
+    """Per net name: the number of connected copper clusters of that net holding >= 1 pad."""
+    pads = list(board.GetPads())
+    labels = copper_labels(board, pads + list(board.GetTracks()) + list(board.Zones()))
+    return clusters_per_net(pads, labels[: len(pads)])
 
 
 def copper_totals(board) -> tuple[float, int]:

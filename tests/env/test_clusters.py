@@ -1,0 +1,31 @@
+"""The environment's pad clusters (finish targets, ratsnest) are the evaluator's: on real
+routed boards the labels per net count what the evaluator counts (one function,
+`pcbdata.kicad.scoring.copper_labels`, over pads, tracks, vias and zones)."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pcbdata.kicad.pool import KicadPool
+from pcbdata.tree import PROJECT_FILE, REFERENCE_FILE, RULES_FILE
+
+
+def _references(root: Path) -> list[Path]:
+    return sorted(p.parent for p in root.glob(f"d3-*/test/*/{REFERENCE_FILE}"))
+
+
+def test_env_clusters_are_the_evaluators_on_routed_real_boards(d3_set):
+    folders = _references(Path(d3_set))[:16]
+    if not folders:
+        pytest.skip(f"{d3_set}: no D3 reference boards")
+    jobs = [(str(f / REFERENCE_FILE), str(f / PROJECT_FILE),
+             str(f / RULES_FILE) if (f / RULES_FILE).is_file() else None) for f in folders]
+    with KicadPool(workers=2, task_timeout=300) as pool:
+        outcomes = list(pool.map("tests.env.cluster_probe:env_and_evaluator_clusters", jobs))
+    assert all(o.ok for o in outcomes), [o.error for o in outcomes if not o.ok]
+    for outcome in outcomes:
+        got = outcome.value
+        assert got["snapshot"] == got["evaluator"], jobs[outcome.index][0]
+        assert got["labels"] == got["evaluator"], jobs[outcome.index][0]
+        assert sum(got["evaluator"].values()) > 0, jobs[outcome.index][0]
