@@ -64,7 +64,7 @@ def write_dir_atomic(path: str | os.PathLike, files: dict[str, bytes | str]) -> 
 def remove_stale_temps(root: str | os.PathLike) -> int:
     """Removes temporary files/folders a killed run left behind; returns how many."""
     count = 0
-    for dirpath, dirnames, filenames in os.walk(root):
+    for dirpath, dirnames, filenames in os.walk(str(root)):
         for name in list(dirnames):
             if name.startswith(".") and name.endswith(".tmp"):
                 shutil.rmtree(os.path.join(dirpath, name), ignore_errors=True)

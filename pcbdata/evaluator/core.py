@@ -69,7 +69,7 @@ SCORE_FIELDS = ("cp", "cp_strict", "pot", "pot_strict", "rout", "drv", "drv_stri
 
 
 def failed_record(status: str, reason: str) -> dict:
-    record = {field: None for field in SCORE_FIELDS}
+    record: dict = {field: None for field in SCORE_FIELDS}
     record.update(cp=0, cp_strict=0, rout=0.0, drv_by_type={}, drv_strict_by_type={})
     return {"status": status, "reason": reason, **record}
 

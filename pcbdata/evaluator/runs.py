@@ -310,22 +310,23 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
     _check_arguments(k, workers, weights, task_timeout, limit, name)
     if reference == (runs is not None):
         raise UserError("give either RUNS (--runs) or --reference")
-    if not reference and not Path(runs).is_dir():
+    runs_dir = None if runs is None else Path(runs)
+    if runs_dir is not None and not runs_dir.is_dir():
         raise UserError(f"{runs}: no such RUNS directory")
     if out.exists() and not out.is_dir():
         raise UserError(f"--out {out}: exists and is not a folder (REPORT is a folder)")
     every = list_instances(root, config, split)
     instances = every[:limit] if limit is not None else every
-    plan = _plan(instances, None if reference else Path(runs), k)
-    warnings = {} if reference else runs_warnings(
-        Path(runs), [b for b, _ in every], [b for b, _ in instances], k)
+    plan = _plan(instances, runs_dir, k)
+    warnings = {} if runs_dir is None else runs_warnings(
+        runs_dir, [b for b, _ in every], [b for b, _ in instances], k)
     out.mkdir(parents=True, exist_ok=True)
     with folder_lock(out, "written"):  # a second eval into REPORT waits: reports never mix
         records = _score_plan(plan, instances, out, weights, workers, task_timeout, progress,
                               executor)
         rollout_rows = _rollout_rows(plan, records, reference, warnings)
-        if warnings and progress:
-            _print_warnings(warnings, Path(runs))
+        if warnings and progress and runs_dir is not None:
+            _print_warnings(warnings, runs_dir)
         by_board: dict[str, list[dict]] = {}
         for row in rollout_rows:
             by_board.setdefault(row["board_id"], []).append(row)
@@ -335,7 +336,7 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                        weights=weights.as_dict(), reference=reference)
         if warnings:
             summary["runs_warnings"] = warnings
-        label = name or ("Reference" if reference else Path(runs).name)
+        label = name or ("Reference" if runs_dir is None else runs_dir.name)
         table = markdown_table([(label, summary)])
         _write_report(out, label, summary, table, rollout_rows, board_rows)
         return {"summary": summary, "table": table, "rollouts": rollout_rows,

@@ -74,7 +74,7 @@ def copper_items(board) -> list[dict]:
     items = []
     for track in board.GetTracks():
         kind = track.Type()
-        item = {"net": str(track.GetNetname())}
+        item: dict = {"net": str(track.GetNetname())}
         if kind == pcbnew.PCB_VIA_T:
             copper = track.GetLayerSet().CuStack()
             item.update(kind="via", at=_xy(track.GetPosition()), via_type=int(track.GetViaType()),
