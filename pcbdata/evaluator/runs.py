@@ -31,10 +31,11 @@ ROLLOUT_COLUMNS = ["board_id", "rollout", "index", "status", "reason", "cp", "po
                    "drv_by_type", "cp_strict", "drv_strict", "pot_strict", "penalty_strict",
                    "phi_strict", "phi_bare_strict", "drv_strict_by_type", "sha256"]
 #: What a board row takes from its kept rollout (the @k choice uses the evaluation count).
-BEST_FIELDS = ("cp", "pot", "rout", "drv", "unconnected", "wl", "via", "cp_strict", "drv_strict")
+BEST_FIELDS = ("cp", "pot", "rout", "drv", "unconnected", "wl", "via", "cp_strict", "drv_strict",
+               "pot_strict")
 BOARD_COLUMNS = ["board_id", "n_rollouts", "n_ok", "n_invalid", "n_parse_fail", "parse_fail",
                  "best_rollout", "cp", "pot", "rout", "drv", "unconnected", "wl", "via", "time",
-                 "cp_strict", "drv_strict"]
+                 "cp_strict", "drv_strict", "pot_strict"]
 CACHE_NAME = "scores.jsonl"
 
 
@@ -196,6 +197,7 @@ def summarize(board_rows: list[dict], rollouts: list[dict], k: int) -> dict:
         "cp": _mean([r["cp"] for r in board_rows]),
         "cp_strict": _mean([r.get("cp_strict", 0) for r in board_rows]),
         "pot": _mean([r["pot"] for r in board_rows]),
+        "pot_strict": _mean([r.get("pot_strict") for r in board_rows]),
         "rout": _mean([r["rout"] for r in board_rows]),
         "drv": _mean([r["drv"] for r in board_rows]),
         "drv_strict": _mean([r.get("drv_strict") for r in board_rows]),

@@ -57,3 +57,4 @@ def test_d3a_reference_row(d3a_set, tmp_path):
     # the strict reading: 6 boards keep a dangling track or via (7 warnings)
     assert s["cp_strict"] == pytest.approx(93 / 99) and s["drv_strict"] == pytest.approx(7 / 99)
     assert sum(r["pot_strict"] for r in result["rollouts"]) / 99 == pytest.approx(23.17, abs=0.05)
+    assert s["pot_strict"] == pytest.approx(23.17, abs=0.05)

@@ -61,7 +61,8 @@ def test_eval_reports(board_set, runs, tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "| my-router |" in printed
     summary = json.loads((out / "summary.json").read_text())
-    for key in ("n_boards", "k", "cp", "pot", "rout", "drv", "wl", "via", "time", "parse_fail",
+    for key in ("n_boards", "k", "cp", "pot", "pot_strict", "rout", "drv", "wl", "via", "time",
+                "parse_fail",
                 "parse_fail_at1", "invalid"):
         assert key in summary
     assert summary["n_boards"] == 4 and summary["k"] == 3
