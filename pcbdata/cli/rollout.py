@@ -13,7 +13,8 @@ def register(parser) -> None:
     parser.add_argument("--config", required=True, help="config name, e.g. d2, d1-g10, d3-a")
     parser.add_argument("--split", default="test", help="split name (default: test)")
     parser.add_argument("--agent", default="scripted",
-                        help="scripted (default), random, or module:Class with act(obs, info)")
+                        help="scripted (default), scripted-shove (push_n_shove when walkaround "
+                             "fails), random, or module:Class with act(obs, info)")
     parser.add_argument("--rollouts", type=int, default=1, help="rollouts per board (seeds 0..)")
     parser.add_argument("--out", required=True, metavar="RUNS",
                         help="RUNS/<board_id>/<rollout>.kicad_pcb + .json (pcbdata eval reads it)")

@@ -20,15 +20,17 @@ from typing import Any
 from pcbdata.errors import UserError
 
 AGENTS = {"scripted": "pcbdata.env.agents:ScriptedAgent",
+          "scripted-shove": "pcbdata.env.agents:ShovingScriptedAgent",
           "random": "pcbdata.env.agents:RandomAgent"}
 
 
 def make_agent(spec: str, seed: int):
-    """An agent by name (`scripted`, `random`) or `module:Class`; seeded when it takes one."""
+    """An agent by name (`scripted`, `scripted-shove`, `random`) or `module:Class`; seeded when
+    it takes one."""
     ref = AGENTS.get(spec, spec)
     module, _, name = ref.partition(":")
     if not name:
-        raise UserError(f"--agent {spec!r}: use scripted, random or module:Class")
+        raise UserError(f"--agent {spec!r}: use scripted, scripted-shove, random or module:Class")
     try:
         cls = getattr(importlib.import_module(module), name)
     except (ImportError, AttributeError) as exc:

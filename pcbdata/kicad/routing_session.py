@@ -238,13 +238,51 @@ def _add_via(board, net, at: tuple, diameter: int, drill: int, top: int, bottom:
     board.Add(via)
 
 
+def _matching(board, edit: dict, layers: dict[str, int]) -> list:
+    """The items a removal names: straight tracks of that net, layer, ends (either way round)
+    and width ({"kind": "remove"}), or vias of that net at that point ({"kind": "remove_via"})."""
+    pcbnew = _pcbnew()
+    out = []
+    for item in board.GetTracks():
+        if str(item.GetNetname()) != edit["net"]:
+            continue
+        if edit["kind"] == "remove_via":
+            if item.Type() == pcbnew.PCB_VIA_T and _xy(item.GetPosition()) == tuple(edit["at"]):
+                out.append(item)
+        elif item.Type() == pcbnew.PCB_TRACE_T and item.GetLayer() == layers[edit["layer"]] \
+                and int(item.GetWidth()) == edit["width"] \
+                and {_xy(item.GetStart()), _xy(item.GetEnd())} == {tuple(edit["start"]),
+                                                                   tuple(edit["end"])}:
+            out.append(item)
+    return out
+
+
+def _xy(point) -> tuple[int, int]:
+    return int(point.x), int(point.y)
+
+
+def _remove(board, edit: dict, layers: dict[str, int]) -> None:
+    found = _matching(board, edit, layers)
+    if not found:
+        what = "via" if edit["kind"] == "remove_via" else "track"
+        raise ValueError(f"no {what} of net {edit['net']!r} to remove at "
+                         f"{edit.get('at') or (edit['start'], edit['end'])}")
+    for item in found:
+        board.Delete(item)  # never Remove: it leaves the item half-owned and damages pcbnew
+
+
 def apply(edits: list[dict], drc: bool = False) -> dict:
     """Adds tracks ({"kind": "track", net, layer, points, width}) and through vias
-    ({"kind": "via", net, at, diameter, drill}) as KiCad items; returns `snapshot(drc)`."""
+    ({"kind": "via", net, at, diameter, drill}) as KiCad items and deletes the tracks and vias
+    that removals name ({"kind": "remove", net, layer, start, end, width};
+    {"kind": "remove_via", net, at}), in order; returns `snapshot(drc)`."""
     board = _board()
     layers = _STATE["layers"]
     nets = board.GetNetsByName()
     for edit in edits:
+        if edit["kind"] in ("remove", "remove_via"):
+            _remove(board, edit, layers)
+            continue
         net = nets[edit["net"]]
         if edit["kind"] == "track":
             _add_track(board, net, layers[edit["layer"]], edit["points"], edit["width"])
