@@ -62,6 +62,7 @@ def open_instance(board: str, project: str, rules: str | None, stage_dir: str) -
     the first snapshot (with DRC)."""
     pcbnew = _pcbnew()
     _STATE.clear()
+    pcbnew.BOARD()  # a process's first BOARD draws one UUID (a static item): not after the seed
     pcbnew.KIID.SeedGenerator(UUID_SEED)
     loaded = pcbnew.LoadBoard(_stage(board, project, rules, stage_dir))
     if loaded is None:
