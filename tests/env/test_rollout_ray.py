@@ -4,6 +4,7 @@ dies mid-episode is run again and loses nothing."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
@@ -57,16 +58,10 @@ def test_a_rollout_whose_ray_worker_dies_runs_again(ray_cluster, board_set, tmp_
     assert main([*argv, "--out", str(tmp_path / "ray"), "--executor", "ray", "--agent",
                  "tests.env.agents_for_tests:KillsItsRayWorkerOnce"]) == 0
     assert "done: 1 rollouts run" in capsys.readouterr().out
-    scratch = Path(ray_cluster_scratch())
+    scratch = Path(os.environ["RAY_TEST_SCRATCH"])  # set by the ray_cluster fixture
     assert (scratch / "killed-board_00000-0").read_text() == "killed once"
     board = "board_00000/0.kicad_pcb"
     assert (tmp_path / "ray" / board).read_bytes() == (tmp_path / "local" / board).read_bytes()
     record = json.loads((tmp_path / "ray" / "board_00000" / "0.json").read_text())
     assert record["agent"] == "tests.env.agents_for_tests:KillsItsRayWorkerOnce"
     assert not list((tmp_path / "ray").rglob(".*"))  # no temporary file of the killed run
-
-
-def ray_cluster_scratch() -> str:
-    import os
-
-    return os.environ["RAY_TEST_SCRATCH"]
