@@ -22,6 +22,11 @@ from pcbdata.kicad.scoring import clusters_per_net, copper_labels, copper_totals
 #: The one board of this worker: {"board", "layers": {name: id}, "pads": [PAD], "path"}.
 _STATE: dict = {}
 _STAGED = [0]  # instances staged by this worker: each gets its own folder
+#: KiCad mints random UUIDs (for the items it adds at load, such as footprint properties the
+#: file lacks, and for new tracks and vias): loading seeds them with UUID_SEED and the n-th
+#: `apply` of an episode with UUID_SEED + n, so a saved board is the same bytes in any worker,
+#: whatever the worker ran before.
+UUID_SEED = 20250301
 
 INSTANCE_FILES = {"board.kicad_pcb": ".kicad_pcb", "board.kicad_pro": ".kicad_pro",
                   "board.kicad_dru": ".kicad_dru"}
@@ -57,12 +62,14 @@ def open_instance(board: str, project: str, rules: str | None, stage_dir: str) -
     the first snapshot (with DRC)."""
     pcbnew = _pcbnew()
     _STATE.clear()
+    pcbnew.BOARD()  # a process's first BOARD draws one UUID (a static item): not after the seed
+    pcbnew.KIID.SeedGenerator(UUID_SEED)
     loaded = pcbnew.LoadBoard(_stage(board, project, rules, stage_dir))
     if loaded is None:
         raise ValueError(f"{board}: KiCad could not load the board")
     loaded.BuildConnectivity()
     layers = {loaded.GetLayerName(i): int(i) for i in loaded.GetEnabledLayers().CuStack()}
-    _STATE.update(board=loaded, layers=layers, pads=list(loaded.GetPads()))
+    _STATE.update(board=loaded, layers=layers, pads=list(loaded.GetPads()), applies=1)
     return {"static": _static(loaded), "snapshot": snapshot(True)}
 
 
@@ -279,6 +286,8 @@ def apply(edits: list[dict], drc: bool = False) -> dict:
     board = _board()
     layers = _STATE["layers"]
     nets = board.GetNetsByName()
+    _pcbnew().KIID.SeedGenerator(UUID_SEED + _STATE["applies"])
+    _STATE["applies"] += 1
     for edit in edits:
         if edit["kind"] in ("remove", "remove_via"):
             _remove(board, edit, layers)
