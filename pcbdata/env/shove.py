@@ -163,5 +163,11 @@ def _attachments(group: list[CopperItem], board: BoardGeometry) -> list[Point]:
 
 
 def _touches(item: CopperItem, point: Point) -> bool:
+    """Whether KiCad joins a track end at `point` to `item`: the end of a track or arc, a point
+    inside a via, pad or zone (a point merely within a track's width is not joined)."""
+    if item.kind in ("track", "arc"):
+        return point in (item.start, item.end)
+    if item.kind == "graphic":
+        return False
     core, radius = copper_core(item)
     return shapely.distance(core, shapely.Point(point)) <= radius
