@@ -10,6 +10,12 @@ any) and the undone ones; then CP @1 of both agents' boards by `pcbdata eval`.
     .venv/bin/python bench/bench_shove.py [--config d2] [--set SET] [--limit N]
         [--json bench/results/shove.json]
 D2 configs are generated when --set is not given; D3 needs --set (a `pcbdata build d3` output).
+
+`--router-only` (D2 levels, no KiCad): close to the protocol of `bench/bench_walkaround.py`
+(connections asked in net order, pad i to pad i+1, each path committed; here only pads that
+share a layer, on the first shared layer, no via); for each connection that walkaround cannot
+route, push_n_shove is asked the same request on the same board (not committed, so the
+walkaround protocol is unchanged).
 """
 from __future__ import annotations
 
@@ -21,6 +27,7 @@ import sys
 import tempfile
 import time
 from collections import Counter
+from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -62,6 +69,41 @@ def _outcome(router: dict) -> list[str]:
     return ["tries", "undone" if "undone" in router["reason"] else "failed"]
 
 
+def _router_only(config: str, limit: int) -> dict:
+    from pcbdata.env.geometry import geometry_from_board
+    from pcbdata.env.shove import plan
+    from pcbdata.env.walkaround import RouteRequest, WalkaroundRouter
+    from pcbdata.generators import D2Generator
+    from pcbdata.presets import d2_level
+    from tests.env import d2_routes
+
+    level = d2_level(config.removeprefix("d2-") if config != "d2" else "default")
+    generator = D2Generator(level.params)
+    counts: Counter = Counter()
+    for index in range(limit):
+        board = generator.generate(level.seed, "test", index).board
+        board = replace(board, tracks=list(board.tracks), vias=list(board.vias))
+        router = WalkaroundRouter(geometry_from_board(board))
+        for net in board.net_names:
+            pads = [p for p in board.pads if p.net == net]
+            for a, b in zip(pads, pads[1:]):
+                shared = [la for la in d2_routes.LAYERS
+                          if la in d2_routes.pad_layers(a) and la in d2_routes.pad_layers(b)]
+                for layer in shared[:1]:
+                    request = RouteRequest(net, layer, (a.x, a.y), (b.x, b.y),
+                                           board.rules.track_width, board.rules.clearance)
+                    found = router.route(request)
+                    counts["connections"] += 1
+                    if found.path is not None:
+                        d2_routes._commit(board, router, net, layer, found.path)
+                        continue
+                    counts["walkaround_failed"] += 1
+                    done = plan(router, request)
+                    counts["shove_routed" if done.path is not None else "shove_failed"] += 1
+                    counts["moved_tracks"] += len(done.removed)
+    return dict(counts)
+
+
 def _write_set(root: Path, config: str, limit: int) -> None:
     from tests.env.conftest import write_set
 
@@ -78,7 +120,14 @@ def main() -> int:
     parser.add_argument("--set", help="a built set holding <config>/test (default: generated)")
     parser.add_argument("--limit", type=int, default=128)
     parser.add_argument("--json", help="write the figures here")
+    parser.add_argument("--router-only", action="store_true",
+                        help="D2 levels: walkaround then push_n_shove on the same requests, "
+                             "without KiCad")
     args = parser.parse_args()
+    if args.router_only:
+        print(json.dumps({"config": args.config, "boards": args.limit,
+                          **_router_only(args.config, args.limit)}, sort_keys=True))
+        return 0
     result: dict = {"machine": machine(), "config": args.config, "limit": args.limit,
                     "date": datetime.now(UTC).isoformat(timespec="minutes"),
                     "load_before": os.getloadavg()}
