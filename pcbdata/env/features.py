@@ -103,23 +103,48 @@ def _put(table: np.ndarray, nets: np.ndarray, block: slice, columns: dict[int, o
         nets[block, 1] = net_b
 
 
-def entity_table(raw: dict, masks: dict, layout: Layout, max_steps: int
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, Frame]:
-    """(features float32 [rows, COLUMNS], nets int64 [rows, 2], valid int8 [rows], frame) of
-    a raw observation and the environment's per-argument masks."""
+@dataclass(frozen=True)
+class StaticRows:
+    """The rows that do not change during an episode (edges, nets, pads) and the frame."""
+
+    table: np.ndarray
+    nets: np.ndarray
+    valid: np.ndarray
+    frame: Frame
+
+
+def static_rows(raw: dict, layout: Layout) -> StaticRows:
+    """Computed once per episode (at reset): `entity_table` starts from copies of them."""
     table = np.zeros((layout.rows, len(COLUMNS)), dtype=np.float64)
     nets = np.full((layout.rows, 2), -1, dtype=np.int64)
     valid = np.zeros(layout.rows, dtype=np.int8)
     frame = frame_of(raw["board_static"])
-    for fill in (_board, _edges, _nets, _pads, _tracks, _vias, _ratsnest, _head, _candidates,
-                 _violations):
-        fill(raw, masks, frame, layout, table, nets, valid, max_steps)
+    for fill in (_edges, _net_rules, _pad_shapes):
+        fill(raw, frame, layout, table, nets, valid)
+    return StaticRows(table, nets, valid, frame)
+
+
+def entity_table(raw: dict, masks: dict, layout: Layout, max_steps: int,
+                 static: StaticRows | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, Frame]:
+    """(features float32 [rows, COLUMNS], nets int64 [rows, 2], valid int8 [rows], frame) of
+    a raw observation and the environment's per-argument masks; `static`: the episode's
+    `static_rows` (computed here when not given)."""
+    static = static or static_rows(raw, layout)
+    table, nets, valid = static.table.copy(), static.nets.copy(), static.valid.copy()
+    frame = static.frame
+    _board(raw, frame, layout, table, nets, valid, max_steps)
+    _net_state(raw, masks, layout, table)
+    _pad_state(raw, layout, table)
+    for fill in (_tracks, _vias, _ratsnest, _head, _violations):
+        fill(raw, frame, layout, table, nets, valid)
+    _candidates(raw, masks, frame, layout, table, nets, valid)
     table[valid == 0] = 0.0  # padding rows are all zeros, whatever the board's frame
     nets[valid == 0] = -1
     return table.astype(np.float32), nets, valid, frame
 
 
-def _board(raw, masks, f, layout, table, nets, valid, max_steps):
+def _board(raw, f, layout, table, nets, valid, max_steps):
     s, g = raw["board_static"], raw["routing_geometry"]
     points = s["outline"][: int(s["outline_count"]), :2]
     low = points.min(axis=0) if len(points) else np.array([f.cx, f.cy])
@@ -134,7 +159,7 @@ def _board(raw, masks, f, layout, table, nets, valid, max_steps):
     valid[row] = 1
 
 
-def _edges(raw, masks, f, layout, table, nets, valid, max_steps):
+def _edges(raw, f, layout, table, nets, valid):
     """One edge per outline point: to the next point of its ring (the last closes the ring)."""
     outline = raw["board_static"]["outline"]  # x, y, ring
     n = int(raw["board_static"]["outline_count"])
@@ -166,27 +191,33 @@ def _net_boxes(pads: np.ndarray, count: int) -> np.ndarray:
     return box
 
 
-def _nets(raw, masks, f, layout, table, nets, valid, max_steps):
+def _net_rules(raw, f, layout, table, nets, valid):
     s = raw["board_static"]
     rows = s["nets"]  # valid, pads, clearance, track_width, via_diameter, via_drill
     n = len(rows)
     box = _net_boxes(s["pads"], n)
-    current = int(raw["router_head"]["net"])
-    is_valid = rows[:, 0] == 1
     block = layout.block(NET)
     _put(table, nets, block, {
         X1: f.x(box[:, 0]), Y1: f.y(box[:, 1]), X2: f.x(box[:, 2]), Y2: f.y(box[:, 3]),
         S1: f.size(rows[:, 2]), S2: f.size(rows[:, 3]), S3: f.size(rows[:, 4]),
-        S4: f.size(rows[:, 5]), LAYER_LO: -1.0, LAYER_HI: -1.0,
-        A: masks["net"][:n], B: np.arange(n) == current, COUNT: rows[:, 1]},
+        S4: f.size(rows[:, 5]), LAYER_LO: -1.0, LAYER_HI: -1.0, COUNT: rows[:, 1]},
         net_a=np.arange(n))
-    valid[block] = is_valid
+    valid[block] = rows[:, 0] == 1
 
 
-def _pads(raw, masks, f, layout, table, nets, valid, max_steps):
+def _net_state(raw, masks, layout, table):
+    """a: the net may be selected now; b: it is the current net."""
+    block = layout.block(NET)
+    table[block, A] = masks["net"][: block.stop - block.start]
+    table[block, B] = 0.0
+    current = int(raw["router_head"]["net"])
+    if current >= 0:
+        table[block.start + current, B] = 1.0
+
+
+def _pad_shapes(raw, f, layout, table, nets, valid):
     s = raw["board_static"]
     rows, on = s["pads"], s["pad_layers"]  # valid, net, x, y, size_x, size_y, shape, drill
-    is_valid = rows[:, 0] == 1
     any_layer = on.any(axis=1)
     lo = np.where(any_layer, on.argmax(axis=1), -1)
     hi = np.where(any_layer, on.shape[1] - 1 - on[:, ::-1].argmax(axis=1), -1)
@@ -194,9 +225,14 @@ def _pads(raw, masks, f, layout, table, nets, valid, max_steps):
     x, y = f.x(rows[:, 2]), f.y(rows[:, 3])
     _put(table, nets, block, {
         X1: x, Y1: y, X2: x, Y2: y, S1: f.size(rows[:, 4]), S2: f.size(rows[:, 5]),
-        S3: f.size(rows[:, 7]), LAYER_LO: f.layer(lo), LAYER_HI: f.layer(hi), CODE: rows[:, 6],
-        A: raw["routing_geometry"]["pad_connected"]}, net_a=rows[:, 1])
-    valid[block] = is_valid
+        S3: f.size(rows[:, 7]), LAYER_LO: f.layer(lo), LAYER_HI: f.layer(hi), CODE: rows[:, 6]},
+        net_a=rows[:, 1])
+    valid[block] = rows[:, 0] == 1
+
+
+def _pad_state(raw, layout, table):
+    """a: the pad shares KiCad copper with another pad of its net."""
+    table[layout.block(PAD), A] = raw["routing_geometry"]["pad_connected"]
 
 
 def _segments(rows, f, first: int):
@@ -205,7 +241,7 @@ def _segments(rows, f, first: int):
             for i, c in enumerate((X1, Y1, X2, Y2))}
 
 
-def _tracks(raw, masks, f, layout, table, nets, valid, max_steps):
+def _tracks(raw, f, layout, table, nets, valid):
     rows = raw["routing_geometry"]["tracks"]  # valid, net, layer, arc, x1, y1, x2, y2, width
     is_valid = rows[:, 0] == 1
     layer = f.layer(rows[:, 2])
@@ -216,7 +252,7 @@ def _tracks(raw, masks, f, layout, table, nets, valid, max_steps):
     valid[block] = is_valid
 
 
-def _vias(raw, masks, f, layout, table, nets, valid, max_steps):
+def _vias(raw, f, layout, table, nets, valid):
     rows = raw["routing_geometry"]["vias"]  # valid, net, x, y, diameter, drill
     is_valid = rows[:, 0] == 1
     x, y = f.x(rows[:, 2]), f.y(rows[:, 3])
@@ -228,7 +264,7 @@ def _vias(raw, masks, f, layout, table, nets, valid, max_steps):
     valid[block] = is_valid
 
 
-def _ratsnest(raw, masks, f, layout, table, nets, valid, max_steps):
+def _ratsnest(raw, f, layout, table, nets, valid):
     rows = raw["routing_geometry"]["ratsnest"]  # valid, net, x1, y1, x2, y2
     is_valid = rows[:, 0] == 1
     length = np.hypot(rows[:, 4] - rows[:, 2], rows[:, 5] - rows[:, 3])
@@ -239,7 +275,7 @@ def _ratsnest(raw, masks, f, layout, table, nets, valid, max_steps):
     valid[block] = is_valid
 
 
-def _head(raw, masks, f, layout, table, nets, valid, max_steps):
+def _head(raw, f, layout, table, nets, valid):
     h = raw["router_head"]
     has_head = int(h["layer"]) >= 0
     x, y = (float(f.x(h["position"][0])), float(f.y(h["position"][1]))) if has_head else (0, 0)
@@ -251,7 +287,7 @@ def _head(raw, masks, f, layout, table, nets, valid, max_steps):
     valid[row] = 1
 
 
-def _candidates(raw, masks, f, layout, table, nets, valid, max_steps):
+def _candidates(raw, masks, f, layout, table, nets, valid):
     rows = raw["router_head"]["candidates"]  # kind, x, y, layer
     is_valid = rows[:, 0] > 0
     x, y = f.x(rows[:, 1]), f.y(rows[:, 2])
@@ -264,7 +300,7 @@ def _candidates(raw, masks, f, layout, table, nets, valid, max_steps):
     valid[block] = is_valid
 
 
-def _violations(raw, masks, f, layout, table, nets, valid, max_steps):
+def _violations(raw, f, layout, table, nets, valid):
     rows = raw["drc"]["violations"]  # valid, type, severity, x, y, net_a, net_b
     is_valid = rows[:, 0] == 1
     x, y = f.x(rows[:, 3]), f.y(rows[:, 4])

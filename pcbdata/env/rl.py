@@ -141,9 +141,11 @@ class RLWrapper(gym.Wrapper):
         self._flat = np.zeros(len(ACTION_TYPES) + self.index_size + len(MODES), dtype=np.bool_)
         self._flat[0] = True  # idle, before the first reset (steps then are rejected anyway)
         self.raw_info: dict = {}
+        self._static: features.StaticRows | None = None
 
     def reset(self, *, seed=None, options=None):
         raw, info = self.env.reset(seed=seed, options=options)
+        self._static = features.static_rows(raw, self.layout)  # the episode's fixed rows
         return self._observation(raw, info), self._info(info)
 
     def step(self, action):
@@ -167,7 +169,7 @@ class RLWrapper(gym.Wrapper):
         index, mode = joint_masks(masks, self.index_size)
         self._flat = flat_mask(masks["type"], index, mode)
         table, nets, valid, frame = features.entity_table(raw, masks, self.layout,
-                                                          self.max_steps)
+                                                          self.max_steps, self._static)
         return {"entities": table, "entity_type": self._types.copy(), "entity_net": nets,
                 "entity_mask": valid, "scale_mm": np.asarray([frame.scale], dtype=np.float32),
                 "action_mask": self._flat.astype(np.int8), "index_mask": index,

@@ -164,10 +164,14 @@ def test_features_of_a_moved_raw_observation_are_the_same(board_set):
         rng = np.random.default_rng(2)
         wrapper = RLWrapper(env)
         obs = wrapper._observation(raw, info)
+        static = features.static_rows(raw, layout)  # the episode's cache, as the wrapper keeps
         checked = 0
         for _ in range(30):
             masks = info["action_mask"]
             table, nets, valid, frame = features.entity_table(raw, masks, layout, 30)
+            cached = features.entity_table(raw, masks, layout, 30, static)
+            for x, y in zip(cached[:3], (table, nets, valid), strict=True):
+                np.testing.assert_array_equal(x, y)
             moved = _moved(raw, *SHIFT)
             assert not np.array_equal(moved["board_static"]["pads"], raw["board_static"]["pads"])
             t2, n2, v2, f2 = features.entity_table(moved, masks, layout, 30)
