@@ -4,10 +4,10 @@ one unwrapped environment stepped serially in this process (the baseline) and on
 environment in this process (the wrapper's own cost).
 
 A masked random policy (uniform over allowed types, then over that type's allowed index and
-mode: `pcbdata.env.rl.sample_action`; the baseline: `pcbdata.env.agents.RandomAgent`, the same
-draw on the environment's Dict masks), D2 boards generated on the fly, episodes of at most
-`--max-steps` steps (finished episodes reset inside the timed run, as in training), DRC after
-every copper change and DRC at the end only. Timing starts after the first reset (the KiCad
+mode: `pcbdata.env.rl.sample_action`, seed 0; the baseline and the one-environment runs take
+the same actions, so they play the same episodes), D2 boards generated on the fly, episodes of
+at most `--max-steps` steps (finished episodes reset inside the timed run, as in training), DRC
+after every copper change and DRC at the end only. Timing starts after the first reset (the KiCad
 workers' start-up is not counted).
 
     .venv/bin/python bench/bench_vector.py [--steps 300] [--sizes 1,2,4] [--out bench/results]
@@ -29,44 +29,52 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from bench._measure import machine  # noqa: E402
 
 
-def _baseline(options: dict, steps: int) -> float:
-    """Seconds for `steps` steps of one unwrapped RoutingEnv, serially, in this process."""
-    from pcbdata.env.agents import RandomAgent
+def _baseline(options: dict, steps: int) -> tuple[float, float]:
+    """Seconds for `steps` steps of one unwrapped RoutingEnv, serially, in this process. Its
+    actions are the wrapped runs' draws (`sample_action` on the joint masks made from the
+    environment's own masks, same seed): the same episodes, so the difference is the cost."""
     from pcbdata.env.env import RoutingEnv
+    from pcbdata.env.rl import env_action, index_size, joint_masks, sample_action
 
     env = RoutingEnv(**options)
-    agent = RandomAgent(0)
+    k = index_size(env.options)
+    rng = np.random.default_rng(0)
     try:
-        obs, info = env.reset(seed=0)
-        began = time.perf_counter()
+        _, info = env.reset(seed=0)
+        began, total = time.perf_counter(), 0.0
         for _ in range(steps):
-            obs, _, terminated, truncated, info = env.step(agent.act(obs, info))
+            index, mode = joint_masks(info["action_mask"], k)
+            action = sample_action({"index_mask": index, "mode_mask": mode}, rng)
+            _, reward, terminated, truncated, info = env.step(env_action(action, k))
+            total += reward
             if terminated or truncated:
-                obs, info = env.reset()
-        return time.perf_counter() - began
+                _, info = env.reset()
+        return time.perf_counter() - began, total
     finally:
         env.close()
 
 
-def _wrapped(options: dict, steps: int) -> float:
-    """Seconds for `steps` steps of one RLWrapper-wrapped environment in this process."""
+def _wrapped(options: dict, steps: int) -> tuple[float, float]:
+    """(Seconds, summed reward) of `steps` steps of one RLWrapper-wrapped environment in this
+    process."""
     from pcbdata.env.rl import make_rl_env, sample_action
 
     env = make_rl_env(**options)
     rng = np.random.default_rng(0)
     try:
         obs, _ = env.reset(seed=0)
-        began = time.perf_counter()
+        began, total = time.perf_counter(), 0.0
         for _ in range(steps):
-            obs, _, terminated, truncated, _ = env.step(sample_action(obs, rng))
+            obs, reward, terminated, truncated, _ = env.step(sample_action(obs, rng))
+            total += float(reward)
             if terminated or truncated:
                 obs, _ = env.reset()
-        return time.perf_counter() - began
+        return time.perf_counter() - began, total
     finally:
         env.close()
 
 
-def _vector(options: dict, n: int, steps: int) -> float:
+def _vector(options: dict, n: int, steps: int) -> tuple[float, float]:
     """Seconds for `steps` vector steps of N spawned wrapped environments (N * steps steps);
     Gymnasium resets a finished environment on its next step."""
     from pcbdata.env.rl import make_vector_env, sample_action
@@ -76,12 +84,13 @@ def _vector(options: dict, n: int, steps: int) -> float:
     rng = np.random.default_rng(0)
     try:
         obs, _ = envs.reset(seed=list(range(n)))
-        began = time.perf_counter()
+        began, total = time.perf_counter(), 0.0
         for _ in range(steps):
             actions = np.stack([sample_action({k: v[i] for k, v in obs.items()}, rng)
                                 for i in range(n)])
-            obs, *_ = envs.step(actions)
-        return time.perf_counter() - began
+            obs, reward, *_ = envs.step(actions)
+            total += float(reward.sum())
+        return time.perf_counter() - began, total
     finally:
         envs.close()
 
@@ -91,13 +100,15 @@ def _rows(drc: str, options: dict, steps: int, sizes: list[int]) -> list[dict]:
             ("RLWrapper, in process", 1, lambda: _wrapped(options, steps))]
     runs += [(f"make_vector_env, {n} spawned", n, lambda n=n: _vector(options, n, steps))
              for n in sizes]
+    _baseline(options, 20)  # warm-up, not timed: lazy imports, first router and DRC in-process
     rows = []
     for name, n, run in runs:
-        seconds = run()
+        seconds, reward = run()
         rows.append({"drc": drc, "setting": name, "envs": n, "steps": n * steps,
-                     "seconds": seconds, "steps_per_s": n * steps / seconds})
+                     "seconds": seconds, "steps_per_s": n * steps / seconds,
+                     "reward_sum": reward})
         print(f"{drc:8s} {name:34s} {n * steps:6d} steps {seconds:7.2f} s "
-              f"{n * steps / seconds:7.1f} steps/s", flush=True)
+              f"{n * steps / seconds:7.1f} steps/s, rewards {reward:.4f}", flush=True)
     base = rows[0]["steps_per_s"]
     for row in rows:
         row["vs_baseline"] = row["steps_per_s"] / base
