@@ -124,6 +124,21 @@ def test_malformed_actions_are_noops(rl_env):
     assert env_action([5, 7, 1], 64) == {"type": 5, "net": 0, "candidate": 7, "mode": 1}
 
 
+def test_feature_columns_follow_the_observation():
+    """features.py reads the raw observation's columns by position: these are the ones."""
+    from pcbdata.env.observation import COLUMNS
+
+    assert COLUMNS == {
+        "outline": ("x", "y", "ring"),
+        "nets": ("valid", "pads", "clearance", "track_width", "via_diameter", "via_drill"),
+        "pads": ("valid", "net", "x", "y", "size_x", "size_y", "shape", "drill"),
+        "tracks": ("valid", "net", "layer", "arc", "x1", "y1", "x2", "y2", "width"),
+        "vias": ("valid", "net", "x", "y", "diameter", "drill"),
+        "ratsnest": ("valid", "net", "x1", "y1", "x2", "y2"),
+        "candidates": ("kind", "x", "y", "layer"),
+        "violations": ("valid", "type", "severity", "x", "y", "net_a", "net_b")}
+
+
 # ---- invariance to moving the board --------------------------------------------------------
 
 SHIFT = (13.5, -7.25)  # mm
