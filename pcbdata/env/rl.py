@@ -149,6 +149,8 @@ class RLWrapper(gym.Wrapper):
         return self._observation(raw, info), self._info(info)
 
     def step(self, action):
+        if self._static is None:
+            raise gym.error.ResetNeeded("call reset() before step()")
         raw, reward, terminated, truncated, info = self.env.step(
             env_action(action, self.index_size))
         return self._observation(raw, info), reward, terminated, truncated, self._info(info)
@@ -194,6 +196,10 @@ def make_rl_env(config: str = "d2", runs_dir: str | None = None, boards=None, ro
     (`pcbdata.env.recorder`)."""
     from pcbdata.env.env import RoutingEnv
 
+    if boards is not None and runs_dir is None:
+        from pcbdata.env.errors import EnvValueError
+
+        raise EnvValueError("boards= schedules recorded episodes: give runs_dir= too")
     env: gym.Env = RLWrapper(RoutingEnv(config=config, **options))
     if runs_dir is not None:
         from pcbdata.env.recorder import RunRecorder

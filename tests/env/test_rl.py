@@ -14,6 +14,7 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import pcbdata.env  # noqa: F401 - registers the ids
+import pcbdata.errors
 from pcbdata.env import features
 from pcbdata.env.env import RoutingEnv
 from pcbdata.env.rl import RLWrapper, env_action, make_rl_env, sample_action
@@ -115,6 +116,10 @@ def test_a_masked_combination_is_a_noop_with_the_reason(rl_env):
 
 def test_malformed_actions_are_noops(rl_env):
     env = rl_env("d2")
+    with pytest.raises(gym.error.ResetNeeded):
+        env.step([0, 0, 0])
+    with pytest.raises(pcbdata.errors.UserError, match="runs_dir"):
+        rl_env("d2", boards=["board_00000"])
     env.reset(seed=0)
     for bad in ([1, 2], np.asarray([1.5, 0, 0]), "net_select", [1, 10**6, 0], [9, 0, 0]):
         _, reward, terminated, truncated, info = env.step(bad)
