@@ -45,7 +45,7 @@ def _baseline(options: dict, steps: int) -> tuple[float, float]:
         for _ in range(steps):
             index, mode = joint_masks(info["action_mask"], k)
             action = sample_action({"index_mask": index, "mode_mask": mode}, rng)
-            _, reward, terminated, truncated, info = env.step(env_action(action, k))
+            _, reward, terminated, truncated, info = env.step(env_action(action))
             total += reward
             if terminated or truncated:
                 _, info = env.reset()

@@ -90,9 +90,10 @@ def flat_mask(type_mask: np.ndarray, index: np.ndarray, mode: np.ndarray) -> np.
     return np.concatenate((type_mask.astype(bool), index.any(axis=0), mode.any(axis=0)))
 
 
-def env_action(action, k: int) -> Any:
-    """The environment's Dict action for a (type, index, mode) triple. Something that is not
-    three numbers goes on as the type alone, so the environment rejects it with its reason."""
+def env_action(action) -> Any:
+    """The environment's Dict action for a (type, index, mode) triple (a Dict action goes on
+    unchanged). Something that is not three integers goes on as the type alone, so the
+    environment rejects it with its reason."""
     if isinstance(action, Mapping):
         return action
     try:
@@ -152,7 +153,7 @@ class RLWrapper(gym.Wrapper):
         if self._static is None:
             raise gym.error.ResetNeeded("call reset() before step()")
         raw, reward, terminated, truncated, info = self.env.step(
-            env_action(action, self.index_size))
+            env_action(action))
         return self._observation(raw, info), reward, terminated, truncated, self._info(info)
 
     def action_masks(self) -> np.ndarray:

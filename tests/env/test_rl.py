@@ -125,8 +125,8 @@ def test_malformed_actions_are_noops(rl_env):
         _, reward, terminated, truncated, info = env.step(bad)
         assert info["rejected"].startswith("malformed action"), (bad, info["rejected"])
         assert reward == 0.0 and not terminated and not truncated
-    assert env_action([1, 5, 2], 64) == {"type": 1, "net": 5, "candidate": 0, "mode": 0}
-    assert env_action([5, 7, 1], 64) == {"type": 5, "net": 0, "candidate": 7, "mode": 1}
+    assert env_action([1, 5, 2]) == {"type": 1, "net": 5, "candidate": 0, "mode": 0}
+    assert env_action([5, 7, 1]) == {"type": 5, "net": 0, "candidate": 7, "mode": 1}
 
 
 def test_feature_columns_follow_the_observation():
@@ -202,7 +202,7 @@ def test_features_of_a_moved_raw_observation_are_the_same(board_set):
             np.testing.assert_allclose(t2, table, atol=1e-6)
             assert np.abs(table[valid == 1][:, features.X1]).max() > 0.3  # not all at the centre
             checked += int(valid.sum())
-            raw, _, terminated, truncated, info = env.step(env_action(sample_action(obs, rng), 64))
+            raw, _, terminated, truncated, info = env.step(env_action(sample_action(obs, rng)))
             obs = wrapper._observation(raw, info)
             if terminated or truncated:
                 break
