@@ -4,6 +4,6 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
-.venv/bin/python -m ruff check pcbdata tests
+.venv/bin/python -m ruff check pcbdata tests examples
 .venv/bin/python -m mypy pcbdata
 exec .venv/bin/python -m pytest "$@"

@@ -1,5 +1,6 @@
-"""One Gymnasium id per config of `pcbdata.configs.registry()`: `pcbdata/Route-<config>-v0`.
-The version changes when the environment's dynamics, observation or reward change."""
+"""One Gymnasium id per config of `pcbdata.configs.registry()`: `pcbdata/Route-<config>-v0`,
+and its RL-wrapped twin `pcbdata/RouteRL-<config>-v0` (`pcbdata.env.rl`). The version changes
+when the environment's dynamics, observation or reward change (or the wrapper's spaces)."""
 from __future__ import annotations
 
 import gymnasium as gym
@@ -7,10 +8,29 @@ import gymnasium as gym
 NAMESPACE = "pcbdata"
 VERSION = 0
 ENTRY_POINT = "pcbdata.env.env:RoutingEnv"
+RL_ENTRY_POINT = "pcbdata.env.rl:make_rl_env"
 
 
 def env_id(config: str, version: int = VERSION) -> str:
     return f"{NAMESPACE}/Route-{config}-v{version}"
+
+
+def rl_env_id(config: str, version: int = VERSION) -> str:
+    return f"{NAMESPACE}/RouteRL-{config}-v{version}"
+
+
+def register_rl() -> list[str]:
+    """Registers every config's RL-wrapped id (idempotent); returns the ids."""
+    from pcbdata.configs import registry
+
+    ids = []
+    for name in registry():
+        ident = rl_env_id(name)
+        if ident not in gym.registry:
+            gym.register(id=ident, entry_point=RL_ENTRY_POINT, kwargs={"config": name},
+                         disable_env_checker=False)
+        ids.append(ident)
+    return ids
 
 
 def register_all() -> list[str]:
