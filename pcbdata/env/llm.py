@@ -95,12 +95,18 @@ def outcome_of(parsed: Parsed, info: dict, changed: bool) -> str:
     return "ok" if changed else "no effect: nothing changed"
 
 
+def ascii_only(text: str) -> str:
+    """Non-ASCII characters as backslash escapes (the messages stay ASCII)."""
+    return text.encode("ascii", "backslashreplace").decode("ascii")
+
+
 def reply_text(reply, parsed: Parsed, limit: int = 200) -> str:
     """The reply as the assistant message's content: the canonical call when it was read,
     else the reply itself (JSON for structures), clipped."""
     if parsed.call:
         return parsed.call
     text = reply if isinstance(reply, str) else json.dumps(reply, sort_keys=True, default=str)
+    text = ascii_only(text)
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
@@ -170,6 +176,7 @@ class LLMWrapper(gym.Wrapper):
     def _note(self, step: int, reply, parsed: Parsed, outcome: str, reward: float) -> None:
         shown = parsed.call or f"<unreadable: {reply_text(reply, parsed, 60)}>"
         gain = f" (reward {reward:+.3f})" if outcome == "ok" and reward else ""
+        outcome = ascii_only(outcome)  # an environment reason may name a non-ASCII net
         self._history.append(f"step {step}: {shown} -> {outcome}{gain}")
         rejected = outcome.startswith("rejected")
         self._streak = self._streak + 1 if rejected else 0

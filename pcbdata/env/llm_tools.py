@@ -73,7 +73,7 @@ def tool_schema(max_candidates: int) -> list[dict]:
 
 
 def _parameters(verb: str, max_candidates: int) -> dict:
-    properties = {}
+    properties: dict[str, dict] = {}
     for name in PARAMETERS[verb]:
         if name == "net":
             properties[name] = {"type": "string", "description": "the net's name as the board "
@@ -183,8 +183,8 @@ def _structured_call(call) -> tuple[str, dict]:
 def _ascii(text: str) -> None:
     bad = next((c for c in text if ord(c) > 127), None)
     if bad is not None:
-        raise ReplyError(f"non-ASCII character {bad!r} (U+{ord(bad):04X}): write calls in "
-                         f"ASCII only")
+        raise ReplyError(f"non-ASCII character U+{ord(bad):04X} at position {text.index(bad)}: "
+                         f"write calls in ASCII only")
 
 
 def _known_verb(name: str) -> str:
