@@ -19,6 +19,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.utils import RecordConstructorArgs
 
 from pcbdata.env import llm_text
 from pcbdata.env.llm_tools import DEFAULTS, PARAMETERS, Parsed, parse_reply, tool_schema
@@ -121,7 +122,7 @@ def allowed_text(mask: dict) -> str:
     return f"Allowed now: {', '.join(verbs) or 'nothing'}. Modes: {', '.join(modes)}."
 
 
-class LLMWrapper(gym.Wrapper):
+class LLMWrapper(gym.Wrapper, RecordConstructorArgs):
     """Text observation (the step's user message), text or tool-call action (the reply).
 
     `history`: actions listed in each message; `turns`: exchanges kept in `messages()`;
@@ -130,7 +131,9 @@ class LLMWrapper(gym.Wrapper):
     the system message and the tools."""
 
     def __init__(self, env: gym.Env, history: int = 8, turns: int = 4, streak_from: int = 2):
-        super().__init__(env)
+        RecordConstructorArgs.__init__(self, history=history, turns=turns,
+                                       streak_from=streak_from)  # check_env can remake it
+        gym.Wrapper.__init__(self, env)
         self.history_size, self.turns, self.streak_from = history, turns, streak_from
         self.observation_space = spaces.Text(max_length=1 << 24, charset=CHARSET)
         self.action_space = spaces.Text(max_length=4096, charset=CHARSET)
@@ -174,7 +177,7 @@ class LLMWrapper(gym.Wrapper):
         return text, reward, terminated, truncated, info
 
     def _note(self, step: int, reply, parsed: Parsed, outcome: str, reward: float) -> None:
-        shown = parsed.call or f"<unreadable: {reply_text(reply, parsed, 60)}>"
+        shown = parsed.call or f"<bad reply: {reply_text(reply, parsed, 60)}>"
         gain = f" (reward {reward:+.3f})" if outcome == "ok" and reward else ""
         outcome = ascii_only(outcome)  # an environment reason may name a non-ASCII net
         self._history.append(f"step {step}: {shown} -> {outcome}{gain}")

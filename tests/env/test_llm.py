@@ -223,7 +223,7 @@ def test_scripted_episode_paths_history_streak_and_score(board_set, make_env, ki
     assert "Your last reply: rejected: make_line is masked in phase no_net" in after_first
     assert "rejected replies in a row" not in after_first
     assert "step 1: make_line(0, walkaround) -> rejected: make_line is masked" in after_third
-    assert 'step 2: <unreadable: make_line(3); finish()> -> rejected: 2 calls' in after_third
+    assert 'step 2: <bad reply: make_line(3); finish()> -> rejected: 2 calls' in after_third
     assert "3 rejected replies in a row" in after_third
     last_opening = model.seen[len(OPENING)][-1]["content"]
     assert f"{len(OPENING)} rejected replies in a row" in last_opening
@@ -272,7 +272,7 @@ def test_text_format_and_determinism(make_env):
     numbers.append(SEXPR_NUMBER.findall(_sexpr_parts(system["content"])))
     flat = [n for group in numbers for n in group]
     assert flat and all(re.fullmatch(r"-?\d+\.\d{3}", n) for n in flat)
-    assert "(at 0.000" not in system["content"] or "-0.000" not in system["content"]
+    assert all("-0.000" not in m["content"] for messages in model.seen for m in messages)
     # a second run of the same episode gives the same text, message for message
     _, _, again, result_again = _episode(make_env)
     assert again.seen == model.seen
@@ -296,3 +296,17 @@ def test_wrapper_spaces_and_early_stop(make_env):
     capped = run_episode(env, lambda messages, tools: "net_end()", max_replies=3, seed=0)
     assert capped.steps == 3 and not capped.stopped
     assert all(r.outcome.startswith("rejected") for r in capped.records)
+
+
+def test_wrapper_passes_gymnasiums_check(make_env):
+    from gymnasium.utils.env_checker import check_env
+
+    with pytest.warns(UserWarning, match="different from the unwrapped"):
+        check_env(LLMWrapper(make_env("d2", max_steps=20)), skip_render_check=True)
+
+
+def test_mm_has_three_decimals():
+    from pcbdata.env.llm_text import mm
+
+    assert [mm(v) for v in (0, -0.0, -0.0001, 1.2345678, 109.0685, -3.5)] == [
+        "0.000", "0.000", "0.000", "1.235", "109.069", "-3.500"]
