@@ -8,7 +8,12 @@ Same machine, same work, one run each, in this order:
    publishing (parquet shards, card, pictures) is timed once: it runs on the driver whatever
    the executor;
 3. `pcbdata eval` of D2 rollouts (`--eval-boards` test boards x 5 rollouts with straight
-   tracks: shorts, clearance violations and unconnected items); the reports must be the same.
+   tracks: shorts, clearance violations and unconnected items); the reports must be the same;
+4. `pcbdata rollout` of the scripted agent (`--rollout-boards` D2 test boards x 1 rollout, DRC
+   after every step): one task per rollout; the files must be the same but for `time_s`;
+5. environment actors (`pcbdata.env.ray_actors`): the same scripted episodes stepped from the
+   driver on one actor per CPU (`step_episodes`, one round trip per step) against one local
+   environment (`run_episodes`); the episode records must be the same.
 
 For each: wall seconds, the driver's own CPU seconds (this process, not its workers: what a
 bigger cluster would wait on) and the overhead of Ray per task. The local cluster has as many
@@ -16,6 +21,7 @@ CPUs as the machine; the local executor runs as many workers (the evaluator's ow
 8 per core is timed too).
 
     .venv/bin/python bench/bench_ray.py --boards 10000 --eval-boards 128 --json bench-ray.json
+    .venv/bin/python bench/bench_ray.py --parts rollout,actors --json bench-ray-rollout.json
 """
 from __future__ import annotations
 
@@ -94,12 +100,96 @@ def evaluate(root: Path, runs: Path, out: Path, executor, workers: int) -> dict:
             "report": {f: (out / f).read_bytes() for f in REPORT_FILES}}
 
 
+def rollout(root: Path, out: Path, executor, workers: int, boards: int) -> dict:
+    from pcbdata.env.rollout import run_rollouts
+
+    summary, wall, cpu = timed(lambda: run_rollouts(
+        root, "d2", "test", "scripted", 1, out, workers, limit=boards, log=lambda line: None,
+        executor=executor))
+    return {"rollouts": summary["run"], "failed": summary["failed"], "seconds": wall,
+            "driver_cpu": cpu, "episode_s": summary["mean_time_s"]}
+
+
+def rollout_files(runs: Path) -> str:
+    """Every file of RUNS, the JSON without its wall time (`time_s`), as one comparable text."""
+    files = {}
+    for path in sorted(runs.rglob("*")):
+        if path.is_file():
+            text = path.read_bytes()
+            if path.suffix == ".json":
+                record = json.loads(text)
+                record.pop("time_s")
+                text = json.dumps(record, sort_keys=True).encode()
+            files[str(path.relative_to(runs))] = text.hex()
+    return json.dumps(files, sort_keys=True)
+
+
+def actors(root: Path, cores: int, boards: int) -> dict:
+    """The same scripted episodes: on `cores` actors from the driver, and on one local env."""
+    import gymnasium as gym
+    import ray
+
+    from pcbdata.env.agents import ScriptedAgent
+    from pcbdata.env.ray_actors import close_actors, make_actors, run_episodes, step_episodes
+
+    specs = [(f"board_{i:05d}", 0) for i in range(boards)]
+    options = {"root": str(root), "split": "test"}
+    idle = {"type": 0, "net": 0, "candidate": 0, "mode": 0}
+    env = gym.make("pcbdata/Route-d2-v0", **options)
+    try:
+        local, wall, cpu = timed(lambda: run_episodes(env, ScriptedAgent, specs))
+        env.reset(seed=0, options={"index": 0})
+        _, idle_local, _ = timed(lambda: [env.step(idle) for _ in range(IDLE_STEPS)])
+    finally:
+        env.close()
+    handles = make_actors(cores, "pcbdata/Route-d2-v0", **options)
+    try:
+        ray.get([a.reset.remote(seed=0, options={"index": 0}) for a in handles])  # warm
+        _, idle_actor, _ = timed(lambda: [ray.get(handles[0].step.remote(idle))
+                                          for _ in range(IDLE_STEPS)])
+        remote, rwall, rcpu = timed(lambda: step_episodes(handles, ScriptedAgent, specs))
+    finally:
+        close_actors(handles)
+    steps = sum(e.steps for e in local)
+    return {"episodes": boards, "steps": steps, "actors": cores,
+            "local_one_env": {"seconds": wall, "driver_cpu": cpu},
+            "ray_actors": {"seconds": rwall, "driver_cpu": rcpu},
+            "idle_step_ms": {"local": idle_local / IDLE_STEPS * 1000,
+                             "actor": idle_actor / IDLE_STEPS * 1000},
+            "same_episodes": [vars(e) for e in local] == [vars(e) for e in remote]}
+
+
+#: Idle steps (no KiCad call) timed one by one: the cost of a step's round trip to an actor.
+IDLE_STEPS = 100
+
+
+def rollout_parts(figures: dict, parts: set[str], tmp_path: Path, on_ray, cores: int,
+                  boards: int) -> None:
+    root = tmp_path / "rollout-set"
+    build_d2(root, options=SyntheticOptions(splits=["test"], count=boards, workers=cores,
+                                            publish=False, log=lambda line: None))
+    figures["rollout_boards"] = boards
+    if "rollout" in parts:
+        figures["rollout"] = {name: rollout(root, tmp_path / f"runs-{name}", ex, cores, boards)
+                              for name, ex in (("local", LOCAL), ("ray", on_ray))}
+        texts = {rollout_files(tmp_path / f"runs-{n}") for n in ("local", "ray")}
+        figures["rollout"]["same_files_but_time_s"] = len(texts) == 1
+        print(json.dumps(figures["rollout"], indent=1), flush=True)
+    if "actors" in parts:
+        figures["actors"] = actors(root, cores, boards)
+        print(json.dumps(figures["actors"], indent=1), flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--boards", type=int, default=10_000, help="D2 train boards to build")
     parser.add_argument("--eval-boards", type=int, default=128,
                         help="D2 test boards to score, 5 rollouts each")
     parser.add_argument("--empty", type=int, default=2000, help="empty tasks per executor")
+    parser.add_argument("--rollout-boards", type=int, default=32,
+                        help="D2 test boards for the rollout and actor runs, 1 episode each")
+    parser.add_argument("--parts", default="empty,build,eval,rollout,actors",
+                        help="which runs, comma-separated (default: all)")
     parser.add_argument("--json", help="write the figures here")
     parser.add_argument("--project", metavar="JSON",
                         help="only print the projection from figures saved by --json")
@@ -109,52 +199,66 @@ def main() -> None:
         return
     import ray
 
+    parts = set(args.parts.split(","))
     cores = os.cpu_count() or 1
-    load = os.getloadavg()[0]
+    load = os.getloadavg()
     ray_start = time.perf_counter()
     ray.init(address="local", num_cpus=cores, include_dashboard=False, log_to_driver=False)
     figures: dict = {"machine": machine(), "load_before": load, "cores": cores,
-                     "ray": ray.__version__, "ray_start_seconds": time.perf_counter() - ray_start}
+                     "ray": ray.__version__, "ray_start_seconds": time.perf_counter() - ray_start,
+                     "parts": sorted(parts)}
     on_ray = RayExecutor()
-    figures["empty"] = {name: empty_tasks(ex, cores, args.empty)
-                        for name, ex in (("local", LOCAL), ("ray", on_ray))}
-    print(json.dumps(figures, indent=1), flush=True)
+    if "empty" in parts:
+        figures["empty"] = {name: empty_tasks(ex, cores, args.empty)
+                            for name, ex in (("local", LOCAL), ("ray", on_ray))}
+        print(json.dumps(figures, indent=1), flush=True)
     with tempfile.TemporaryDirectory(prefix="bench-ray-") as tmp:
         tmp_path = Path(tmp)
-        figures["build"] = {name: build(tmp_path / f"build-{name}", ex, cores, args.boards)
-                            for name, ex in (("local", LOCAL), ("ray", on_ray))}
-        manifests = {(tmp_path / f"build-{n}" / "manifest.json").read_bytes()
-                     for n in ("local", "ray")}
-        figures["build"]["same_manifest"] = len(manifests) == 1
-        from pcbdata.publish import publish_set
-
-        _, wall, cpu = timed(lambda: publish_set(tmp_path / "build-local", ["d2"]))
-        figures["publish"] = {"boards": args.boards, "seconds": wall, "driver_cpu": cpu}
-        print(json.dumps(figures, indent=1), flush=True)
-
-        root, runs = tmp_path / "set", tmp_path / "runs"
-        build_d2(root, options=SyntheticOptions(splits=["test"], count=args.eval_boards,
-                                                workers=cores, publish=False,
-                                                log=lambda line: None))
-        figures["rollouts"] = make_rollouts(root, runs, args.eval_boards)
-        figures["eval_boards"] = args.eval_boards
-        runs_eval = {"local": (LOCAL, cores), "ray": (on_ray, cores),
-                     "local_8_per_core": (LOCAL, min(32, 8 * cores))}
-        figures["eval"] = {name: evaluate(root, runs, tmp_path / f"report-{name}", ex, w)
-                           for name, (ex, w) in runs_eval.items()}
-        reports = {json.dumps({k: v.decode() for k, v in e.pop("report").items()})
-                   for e in figures["eval"].values()}
-        figures["eval"]["same_reports"] = len(reports) == 1
-    figures["load_after"] = os.getloadavg()[0]
+        if "build" in parts:
+            build_part(figures, tmp_path, on_ray, cores, args.boards)
+        if "eval" in parts:
+            eval_part(figures, tmp_path, on_ray, cores, args.eval_boards)
+        if parts & {"rollout", "actors"}:
+            rollout_parts(figures, parts, tmp_path, on_ray, cores, args.rollout_boards)
+    figures["load_after"] = os.getloadavg()
     ray.shutdown()
     table = summary_table(figures)
     figures["table"] = table
-    figures["projection"] = projection(figures)
+    if {"build", "eval"} <= parts:
+        figures["projection"] = projection(figures)
     print(json.dumps(figures, indent=1))
     print(table)
-    print(figures["projection"])
+    print(figures.get("projection", ""))
     if args.json:
         Path(args.json).write_text(json.dumps(figures, indent=1) + "\n")
+
+
+def build_part(figures: dict, tmp_path: Path, on_ray, cores: int, boards: int) -> None:
+    figures["build"] = {name: build(tmp_path / f"build-{name}", ex, cores, boards)
+                        for name, ex in (("local", LOCAL), ("ray", on_ray))}
+    manifests = {(tmp_path / f"build-{n}" / "manifest.json").read_bytes()
+                 for n in ("local", "ray")}
+    figures["build"]["same_manifest"] = len(manifests) == 1
+    from pcbdata.publish import publish_set
+
+    _, wall, cpu = timed(lambda: publish_set(tmp_path / "build-local", ["d2"]))
+    figures["publish"] = {"boards": boards, "seconds": wall, "driver_cpu": cpu}
+    print(json.dumps(figures, indent=1), flush=True)
+
+
+def eval_part(figures: dict, tmp_path: Path, on_ray, cores: int, boards: int) -> None:
+    root, runs = tmp_path / "set", tmp_path / "runs"
+    build_d2(root, options=SyntheticOptions(splits=["test"], count=boards, workers=cores,
+                                            publish=False, log=lambda line: None))
+    figures["rollouts"] = make_rollouts(root, runs, boards)
+    figures["eval_boards"] = boards
+    runs_eval = {"local": (LOCAL, cores), "ray": (on_ray, cores),
+                 "local_8_per_core": (LOCAL, min(32, 8 * cores))}
+    figures["eval"] = {name: evaluate(root, runs, tmp_path / f"report-{name}", ex, w)
+                       for name, (ex, w) in runs_eval.items()}
+    reports = {json.dumps({k: v.decode() for k, v in e.pop("report").items()})
+               for e in figures["eval"].values()}
+    figures["eval"]["same_reports"] = len(reports) == 1
 
 
 def summary_table(f: dict) -> str:
@@ -169,17 +273,34 @@ def summary_table(f: dict) -> str:
                     f"{over:+.1f} ms | {local['driver_cpu'] / tasks * 1000:.2f} / "
                     f"{ray['driver_cpu'] / tasks * 1000:.2f} ms |")
 
-    e = f["empty"]
-    row("empty task", e["local"]["tasks"], e["local"], e["ray"])
-    b = f["build"]
-    chunks = -(-b["local"]["boards"] // 128)
-    row(f"D2 build, {b['local']['boards']} boards ({chunks} chunks + {b['local']['checked']} "
-        f"checks)", chunks + b["local"]["checked"], b["local"], b["ray"])
-    v = f["eval"]
-    row(f"eval, {v['local']['rollouts']} D2 rollouts + {f['eval_boards']} bare boards",
-        v["local"]["rollouts"] + f["eval_boards"], v["local"], v["ray"])
-    row(f"eval, the same, local at {min(32, 8 * cores)} workers",
-        v["local"]["rollouts"] + f["eval_boards"], v["local_8_per_core"], v["ray"])
+    if "empty" in f:
+        e = f["empty"]
+        row("empty task", e["local"]["tasks"], e["local"], e["ray"])
+    if "build" in f:
+        b = f["build"]
+        chunks = -(-b["local"]["boards"] // 128)
+        row(f"D2 build, {b['local']['boards']} boards ({chunks} chunks + "
+            f"{b['local']['checked']} checks)", chunks + b["local"]["checked"], b["local"],
+            b["ray"])
+    if "eval" in f:
+        v = f["eval"]
+        row(f"eval, {v['local']['rollouts']} D2 rollouts + {f['eval_boards']} bare boards",
+            v["local"]["rollouts"] + f["eval_boards"], v["local"], v["ray"])
+        row(f"eval, the same, local at {min(32, 8 * cores)} workers",
+            v["local"]["rollouts"] + f["eval_boards"], v["local_8_per_core"], v["ray"])
+    if "rollout" in f:
+        r = f["rollout"]
+        row(f"rollout, {r['local']['rollouts']} scripted D2 episodes", r["local"]["rollouts"],
+            r["local"], r["ray"])
+    if "actors" in f:  # one local env in turn against one actor per CPU: per step, not task
+        a = f["actors"]
+        local, ray = a["local_one_env"], a["ray_actors"]
+        over = (ray["seconds"] * a["actors"] - local["seconds"]) / a["steps"] * 1000
+        rows.append(f"| {a['episodes']} scripted D2 episodes, {a['steps']} steps: 1 local env "
+                    f"/ {a['actors']} actors (per step) | {a['steps']} | "
+                    f"{local['seconds']:.1f} | {ray['seconds']:.1f} | {over:+.1f} ms | "
+                    f"{local['driver_cpu'] / a['steps'] * 1000:.2f} / "
+                    f"{ray['driver_cpu'] / a['steps'] * 1000:.2f} ms |")
     return "\n".join(rows)
 
 

@@ -80,14 +80,16 @@ def real_subset(tmp_path_factory, kicad_pool):
 
 
 @pytest.fixture(scope="session")
-def ray_cluster():
+def ray_cluster(tmp_path_factory):
     """A Ray cluster of 2 CPUs on this machine, loopback only, for the whole session; skips
     where Ray is not installed (`pip install 'pcbdata[ray]'`). Its workers import pcbdata and
-    the tests from this checkout (PYTHONPATH, inherited from here)."""
+    the tests from this checkout (PYTHONPATH, inherited from here) and see a scratch folder of
+    this session as RAY_TEST_SCRATCH (for tasks that must act once only)."""
     import os
 
     saved = {k: os.environ.get(k) for k in ("RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER", "PYTHONPATH",
-                                             "RAY_USAGE_STATS_ENABLED")}
+                                             "RAY_USAGE_STATS_ENABLED", "RAY_TEST_SCRATCH")}
+    os.environ["RAY_TEST_SCRATCH"] = str(tmp_path_factory.mktemp("ray-scratch"))
     # Ray binds to loopback when it believes it cannot form a cluster (read at import).
     os.environ["RAY_ENABLE_WINDOWS_OR_OSX_CLUSTER"] = "0"
     os.environ["RAY_USAGE_STATS_ENABLED"] = "0"  # offline: no usage report

@@ -4,6 +4,8 @@ from __future__ import annotations
 import os
 import sys
 
+from pcbdata.cli import _executor_options
+
 VERB = "rollout"
 HELP = "run an agent (scripted, random or module:Class) in the routing environment over a set"
 
@@ -13,16 +15,19 @@ def register(parser) -> None:
     parser.add_argument("--config", required=True, help="config name, e.g. d2, d1-g10, d3-a")
     parser.add_argument("--split", default="test", help="split name (default: test)")
     parser.add_argument("--agent", default="scripted",
-                        help="scripted (default), random, or module:Class with act(obs, info)")
+                        help="scripted (default), scripted-shove (push_n_shove when walkaround "
+                             "fails), random, or module:Class with act(obs, info)")
     parser.add_argument("--rollouts", type=int, default=1, help="rollouts per board (seeds 0..)")
     parser.add_argument("--out", required=True, metavar="RUNS",
                         help="RUNS/<board_id>/<rollout>.kicad_pcb + .json (pcbdata eval reads it)")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1,
-                        help="parallel environments, each with its KiCad worker (default: cores)")
+                        help="parallel environments, each with its KiCad worker (default: cores; "
+                             "--executor ray uses every CPU of the cluster)")
     parser.add_argument("--limit", type=int, help="only the first N boards")
     parser.add_argument("--max-steps", type=int, default=200, help="step limit (default: 200)")
     parser.add_argument("--drc", choices=("step", "terminal"), default="step",
                         help="KiCad DRC after every copper change (default) or at the end only")
+    _executor_options.add(parser)
     parser.set_defaults(run=run)
 
 
@@ -34,7 +39,8 @@ def run(args) -> int:
         raise UserError("--rollouts and --workers must be at least 1")
     summary = run_rollouts(args.dir, args.config, args.split, args.agent, args.rollouts,
                            args.out, args.workers, args.limit,
-                           {"max_steps": args.max_steps, "drc": args.drc})
+                           {"max_steps": args.max_steps, "drc": args.drc},
+                           executor=_executor_options.executor(args))
     mean = summary["mean_reward"]
     print(f"done: {summary['run']} rollouts run, {summary['skipped']} already done, "
           f"{summary['terminated']} fully connected, {summary['engine_failures']} engine "

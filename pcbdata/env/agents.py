@@ -6,7 +6,9 @@ random agent. Both read only the observation and `info["action_mask"]`.
 the shortest open ratsnest edge, on a layer both pads share if any, and calls `finish` in
 `walkaround` mode until the net is joined; when the head's layer has no reachable pad it drops
 a via at the head (never on a drilled pad: it restarts on the pad's other layer instead) and
-goes on from the other layer; it releases the net when done or out of ideas.
+goes on from the other layer; it releases the net when done or out of ideas. With
+`shove=True` (`ShovingScriptedAgent`, `--agent scripted-shove`) a `finish` that walkaround cannot
+route is tried once more in `push_n_shove` mode before the via.
 """
 from __future__ import annotations
 
@@ -21,6 +23,7 @@ from pcbdata.env.types import (
     NET_SELECT,
     NO_NET,
     PAD,
+    PUSH_N_SHOVE,
     START_ROUTE,
     WALKAROUND,
 )
@@ -72,10 +75,12 @@ class ScriptedAgent:
     """The rule-based baseline (see the module doc). `done` turns True when it has nothing
     left to try (a runner may then stop the episode early)."""
 
-    def __init__(self, seed: int = 0, tries_per_net: int = 6, mode: int = WALKAROUND):
+    def __init__(self, seed: int = 0, tries_per_net: int = 6, mode: int = WALKAROUND,
+                 shove: bool = False):
         self.seed = seed
         self.tries_per_net = tries_per_net
         self.mode = mode  # WALKAROUND; MARK_OBSTACLES lays lines through obstacles (demos, tests)
+        self.shove = shove  # when `finish` finds no path, try it once more in push_n_shove mode
         self._board = None
 
     def _new_episode(self, obs) -> None:
@@ -84,8 +89,9 @@ class ScriptedAgent:
         self._started: set[tuple] = set()
         self._gave_up: set[int] = set()
         self._finish_failed: set[tuple] = set()
+        self._shove_failed: set[tuple] = set()
         self._vias: set[tuple] = set()
-        self._last = IDLE
+        self._last, self._last_mode = IDLE, self.mode
         self.done = False
 
     def act(self, obs, info) -> dict:
@@ -94,7 +100,8 @@ class ScriptedAgent:
             self._new_episode(obs)
         head = obs["router_head"]
         if self._last == FINISH and info.get("router") and not info["router"]["ok"]:
-            self._finish_failed.add(self._head_key(obs))
+            failed = self._shove_failed if self._last_mode == PUSH_N_SHOVE else self._finish_failed
+            failed.add(self._head_key(obs))
         phase = int(head["phase"])
         if phase == NO_NET:
             chosen = self._select(obs, info)
@@ -102,7 +109,7 @@ class ScriptedAgent:
             chosen = self._start(obs, info)
         else:
             chosen = self._route(obs, info)
-        self._last = chosen["type"]
+        self._last, self._last_mode = chosen["type"], chosen["mode"]
         return chosen
 
     @staticmethod
@@ -165,6 +172,9 @@ class ScriptedAgent:
         key = self._head_key(obs)
         if m["type"][FINISH] and m["mode"][self.mode] and key not in self._finish_failed:
             return action(FINISH, mode=self.mode)
+        if self.shove and m["type"][FINISH] and m["mode"][PUSH_N_SHOVE] \
+                and key not in self._shove_failed:
+            return action(FINISH, mode=PUSH_N_SHOVE)
         via = self._via_here(obs, info, key)
         if via is not None:
             self._vias.add(key[:2])
@@ -183,3 +193,10 @@ class ScriptedAgent:
             if info["action_mask"]["candidate_via"][i] and (c[1], c[2], int(c[3])) == key:
                 return i
         return None
+
+
+class ShovingScriptedAgent(ScriptedAgent):
+    """The scripted baseline with the push_n_shove fallback (`--agent scripted-shove`)."""
+
+    def __init__(self, seed: int = 0, tries_per_net: int = 6):
+        super().__init__(seed, tries_per_net, WALKAROUND, shove=True)

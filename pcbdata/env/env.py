@@ -263,7 +263,14 @@ class RoutingEnv(gym.Env):
         if not done.ok:
             return report, False
         if done.edits:
+            before = self._snap["clusters"]
             self._apply(done.edits)
+            lost = routing.lost_connections(before, self._snap["clusters"], done.moved)
+            if lost:  # KiCad is the judge: a moved net came apart, so the shove is undone
+                self._apply(routing.undo(done.edits))
+                report.update(ok=False, reason=f"push_n_shove: undone, KiCad's connectivity "
+                                               f"shows net {lost[0]!r} lost a connection")
+                return report, True
         self._head = done.head
         return report, bool(done.edits)
 

@@ -21,7 +21,6 @@ from pcbdata.env.types import (
     NET_SELECT,
     NO_NET,
     PAD,
-    PUSH_N_SHOVE,
     RING,
     ROUTING,
     START_ROUTE,
@@ -32,9 +31,8 @@ from pcbdata.env.types import (
     StaticBoard,
 )
 
-MODE_UNAVAILABLE = {
-    PUSH_N_SHOVE: "push_n_shove is not implemented yet (issue 11): masked",
-}
+#: Modes an environment cannot offer, with the reason (none today; kept for modes to come).
+MODE_UNAVAILABLE: dict[int, str] = {}
 
 
 def phase_of(net: str | None, head: Head | None) -> int:

@@ -1,10 +1,16 @@
 """Rollouts of an agent over a board set, written as `pcbdata eval` reads them:
 `RUNS/<board_id>/<rollout>.kicad_pcb` + `<rollout>.json` (time_s, steps, reward, ...).
 
-Parallel over `KicadPool` worker processes (exec-started, with a time limit per rollout; each
-keeps one environment, hence one KiCad worker of its own, for all its rollouts), resumable (a
-rollout whose JSON exists is skipped; files are written to temporary names and renamed, the
-JSON last). A rollout whose worker fails (time limit, crash) is reported and left pending.
+One task per rollout, on an executor (`pcbdata.executors`): this machine's `KicadPool` worker
+processes (the default) or a Ray cluster, where each Ray worker process runs its tasks in a
+`KicadPool` worker of its own. Either way a worker (exec-started, with a time limit per
+rollout) keeps one environment, hence one KiCad worker of its own, for all its rollouts.
+Resumable (a rollout whose JSON exists is skipped; files are written to temporary names and
+renamed, the JSON last), so a task run twice (Ray runs again a task whose node died) leaves
+the same files. A rollout whose worker fails (time limit, crash) is reported and left pending.
+
+The files are the same bytes whatever the executor and the worker (the environment is
+deterministic and seeds KiCad's UUIDs), but for the JSON's `time_s`: the episode's wall time.
 """
 from __future__ import annotations
 
@@ -20,15 +26,17 @@ from typing import Any
 from pcbdata.errors import UserError
 
 AGENTS = {"scripted": "pcbdata.env.agents:ScriptedAgent",
+          "scripted-shove": "pcbdata.env.agents:ShovingScriptedAgent",
           "random": "pcbdata.env.agents:RandomAgent"}
 
 
 def make_agent(spec: str, seed: int):
-    """An agent by name (`scripted`, `random`) or `module:Class`; seeded when it takes one."""
+    """An agent by name (`scripted`, `scripted-shove`, `random`) or `module:Class`; seeded when
+    it takes one."""
     ref = AGENTS.get(spec, spec)
     module, _, name = ref.partition(":")
     if not name:
-        raise UserError(f"--agent {spec!r}: use scripted, random or module:Class")
+        raise UserError(f"--agent {spec!r}: use scripted, scripted-shove, random or module:Class")
     try:
         cls = getattr(importlib.import_module(module), name)
     except (ImportError, AttributeError) as exc:
@@ -55,18 +63,29 @@ def run_episode(env, agent, board_id: str, seed: int) -> dict:
             "engine_failure": info.get("engine_failure")}
 
 
-_ENV: dict[str, Any] = {}
+_ENV: dict[str, Any] = {}  # this worker's environment and the arguments it was made with
 
 
 def _env(env_kwargs: dict):
+    """This worker's environment for `env_kwargs`, made again when they change (a Ray node's
+    worker outlives one run and may serve the next run's rollouts, with other options)."""
     import gymnasium as gym
 
     import pcbdata.env  # noqa: F401 - registers the ids
-    if "env" not in _ENV:
+    if _ENV.get("kwargs") != env_kwargs:
+        if "env" in _ENV:
+            _ENV.pop("env").close()
+        else:
+            atexit.register(_close_env)  # the worker ends normally when its pool stops
         kwargs = dict(env_kwargs)
         _ENV["env"] = gym.make(kwargs.pop("id"), **kwargs)
-        atexit.register(_ENV["env"].close)  # the worker ends normally when its pool stops
+        _ENV["kwargs"] = env_kwargs
     return _ENV["env"]
+
+
+def _close_env() -> None:
+    if "env" in _ENV:
+        _ENV.pop("env").close()
 
 
 def _write_atomic(path: Path, text: str) -> None:
@@ -105,26 +124,30 @@ ROLLOUT_TIMEOUT = 3600.0
 
 def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, workers: int,
                  limit: int | None = None, env_options: dict | None = None, log=print,
-                 timeout: float = ROLLOUT_TIMEOUT) -> dict:
-    """Runs every missing rollout; returns a summary. Progress lines go to `log`."""
+                 timeout: float = ROLLOUT_TIMEOUT, executor=None) -> dict:
+    """Runs every missing rollout, one task each on `executor` (None: this machine's workers,
+    `workers` of them; a Ray executor uses every CPU of its cluster); returns a summary.
+    Progress lines go to `log`. `root` and `out` are made absolute here: on a Ray cluster they
+    must be the same path on every node (a shared filesystem)."""
     from pcbdata.configs import get_config
     from pcbdata.env.registry import env_id, register_all
     from pcbdata.evaluator.runs import list_instances
-    from pcbdata.kicad.pool import KicadPool
+    from pcbdata.executors import resolve
 
     get_config(config)  # an unknown config is a UserError naming the closest one
     if env_id(config) not in register_all():
         raise UserError(f"config {config!r} has no environment id: the ids are one per "
                         f"config of the registry (e.g. {env_id('d2')})")
     make_agent(agent, 0)  # a bad --agent fails before any work
-    board_ids = [b for b, _ in list_instances(Path(root), config, split)][:limit]
-    out = Path(out)
+    root, out = Path(root).resolve(), Path(out).resolve()
+    board_ids = [b for b, _ in list_instances(root, config, split)][:limit]
     todo = pending(board_ids, rollouts, out)
     env_kwargs = {"id": env_id(config), "root": str(root), "split": split, **(env_options or {})}
     began, records, failed = time.perf_counter(), [], 0
     tasks = [(env_kwargs, agent, b, r, str(out)) for b, r in todo]
-    with KicadPool(workers=max(1, min(workers, len(todo) or 1)), task_timeout=timeout,
-                   tasks_per_worker=10**9, memory_limit_mb=0) as pool:
+    with resolve(executor).pool(workers=max(1, min(workers, len(todo) or 1)),
+                                task_timeout=timeout, tasks_per_worker=10**9,
+                                memory_limit_mb=0) as pool:
         for done, outcome in enumerate(pool.map(f"{__name__}:rollout_task", tasks), start=1):
             if not outcome.ok:
                 failed += 1

@@ -2,15 +2,26 @@
 
 Geometry is pcbdata's: `walkaround` asks the walkaround router (`pcbdata.env.walkaround`) for a
 legal octilinear path; `mark_obstacles` lays the straight or two-segment octilinear line as
-asked, violations allowed. KiCad then holds the copper and judges it. An operation that cannot
-be done changes nothing and says why.
+asked, violations allowed; `push_n_shove` takes up other nets' tracks in the way and joins
+those nets again around the new path (`pcbdata.env.shove`). KiCad then holds the copper and
+judges it. An operation that cannot be done changes nothing and says why.
 """
 from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
 
-from pcbdata.env.types import MARK_OBSTACLES, WALKAROUND, Head, NetRules, StaticBoard
+from pcbdata.env import shove
+from pcbdata.env.geometry import CopperItem
+from pcbdata.env.types import (
+    MARK_OBSTACLES,
+    MODES,
+    PUSH_N_SHOVE,
+    WALKAROUND,
+    Head,
+    NetRules,
+    StaticBoard,
+)
 from pcbdata.env.walkaround import RouteRequest, mark_obstacles_path
 
 
@@ -21,6 +32,8 @@ class Outcome:
     edits: list = field(default_factory=list)
     head: Head | None = None
     stats: dict = field(default_factory=dict)
+    side: list = field(default_factory=list)  # push_n_shove: other nets' removals and reroutes
+    moved: tuple[str, ...] = ()  # push_n_shove: the nets whose tracks it moved
 
 
 def octilinear_line(start, goal) -> tuple:
@@ -34,13 +47,20 @@ def via_layer(static: StaticBoard, layer: int) -> int:
     return len(static.layers) - 1 if layer == 0 else 0
 
 
-def _path(router, mode: int, net: NetRules, layer: str, start, goal, budget) -> Outcome:
+def _request(net: NetRules, layer: str, start, goal) -> RouteRequest:
+    return RouteRequest(net=net.name, layer=layer, start=(int(start[0]), int(start[1])),
+                        goal=(int(goal[0]), int(goal[1])), width=net.track_width,
+                        clearance=net.clearance)
+
+
+def _path(router, mode: int, net: NetRules, layer: str, start, goal, budget,
+          extra: tuple = ()) -> Outcome:
     if mode == MARK_OBSTACLES:
         return Outcome(True, edits=[octilinear_line(start, goal)])
+    if mode == PUSH_N_SHOVE:
+        return _shove_path(router, net, layer, start, goal, budget, extra)
     began = time.perf_counter()
-    result = router().route(RouteRequest(net=net.name, layer=layer, start=tuple(start),
-                                         goal=tuple(goal), width=net.track_width,
-                                         clearance=net.clearance))
+    result = router().route(_request(net, layer, start, goal))
     budget.append(time.perf_counter() - began)
     stats = deterministic_stats(result.stats)
     if result.path is None:
@@ -50,6 +70,48 @@ def _path(router, mode: int, net: NetRules, layer: str, start, goal, budget) -> 
         return Outcome(False, "walkaround: the router's path does not join the head to the goal",
                        stats=stats)
     return Outcome(True, edits=[path], stats=stats)
+
+
+def _shove_path(router, net: NetRules, layer: str, start, goal, budget, extra) -> Outcome:
+    began = time.perf_counter()
+    planned = shove.plan(router(), _request(net, layer, start, goal), extra)
+    budget.append(time.perf_counter() - began)
+    stats = deterministic_stats(planned.stats)
+    if planned.path is None:
+        return Outcome(False, planned.reason, stats=stats)
+    side = [remove_edit(item) for item in planned.removed]
+    side += [{"kind": "track", "net": r.net, "layer": layer, "points": list(r.path),
+              "width": r.width} for r in planned.reroutes]
+    return Outcome(True, edits=[planned.path], stats=stats, side=side, moved=planned.moved_nets)
+
+
+def remove_edit(item: CopperItem) -> dict:
+    """The edit that takes one straight track up (KiCad deletes every track of that net, layer,
+    ends and width)."""
+    return {"kind": "remove", "net": item.net, "layer": item.layers[0], "start": item.start,
+            "end": item.end, "width": item.width}
+
+
+def undo(edits: list[dict]) -> list[dict]:
+    """Edits that take the board back to where it was before `edits`."""
+    out: list[dict] = []
+    for edit in reversed(edits):
+        if edit["kind"] == "track":
+            points = edit["points"]
+            out += [{"kind": "remove", "net": edit["net"], "layer": edit["layer"], "start": a,
+                     "end": b, "width": edit["width"]}
+                    for a, b in reversed(list(zip(points, points[1:]))) if tuple(a) != tuple(b)]
+        elif edit["kind"] == "via":
+            out.append({"kind": "remove_via", "net": edit["net"], "at": edit["at"]})
+        else:
+            out.append({"kind": "track", "net": edit["net"], "layer": edit["layer"],
+                        "points": [edit["start"], edit["end"]], "width": edit["width"]})
+    return out
+
+
+def lost_connections(before: dict, after: dict, nets) -> list[str]:
+    """The moved nets with more pad clusters after an edit than before (KiCad's count)."""
+    return [net for net in nets if after.get(net, 0) > before.get(net, 0)]
 
 
 def deterministic_stats(stats) -> dict:
@@ -65,26 +127,33 @@ def _track_edit(net: NetRules, layer: str, points) -> dict:
             "width": net.track_width}
 
 
-def make_line(static, router, net: NetRules, head: Head, goal, mode: int, times) -> Outcome:
+def make_line(static, router, net: NetRules, head: Head, goal, mode: int, times,
+              extra: tuple = ()) -> Outcome:
     layer = static.layers[head.layer]
-    found = _path(router, mode, net, layer, (head.x, head.y), goal, times)
+    found = _path(router, mode, net, layer, (head.x, head.y), goal, times, extra)
     if not found.ok:
         return found
     edits = [_track_edit(net, layer, found.edits[0])] if tuple(goal) != (head.x, head.y) else []
-    return Outcome(True, edits=edits, head=Head(goal[0], goal[1], head.layer), stats=found.stats)
+    return Outcome(True, edits=found.side + edits, head=Head(goal[0], goal[1], head.layer),
+                   stats=found.stats, moved=found.moved)
 
 
 def make_via(static, router, net: NetRules, head: Head, goal, mode: int, times) -> Outcome:
-    if mode == WALKAROUND and not router().via_fits(net.name, tuple(goal), net.via_diameter,
-                                                    net.clearance, tuple(static.layers)):
-        return Outcome(False, "walkaround: the via does not fit there (clearance)")
-    line = make_line(static, router, net, head, goal, mode, times)
+    if mode != MARK_OBSTACLES and not router().via_fits(
+            net.name, tuple(goal), net.via_diameter, net.clearance, tuple(static.layers)):
+        because = "" if mode == WALKAROUND else "; tracks are moved for the line, not the via"
+        return Outcome(False, f"{MODES[mode]}: the via does not fit there (clearance{because})")
+    at = (int(goal[0]), int(goal[1]))
+    via_item = CopperItem(kind="via", net=net.name, layers=tuple(static.layers), start=at, end=at,
+                          width=net.via_diameter, clearance=net.clearance)
+    line = make_line(static, router, net, head, goal, mode, times, (via_item,))
     if not line.ok:
         return line
     via = {"kind": "via", "net": net.name, "at": tuple(goal), "diameter": net.via_diameter,
            "drill": net.via_drill}
     return Outcome(True, edits=line.edits + [via],
-                   head=Head(goal[0], goal[1], via_layer(static, head.layer)), stats=line.stats)
+                   head=Head(goal[0], goal[1], via_layer(static, head.layer)), stats=line.stats,
+                   moved=line.moved)
 
 
 def finish(static, router, net: NetRules, head: Head, targets: list[tuple[int, int]], mode: int,

@@ -22,7 +22,7 @@ ENGINE = {
     "board_model": "kicad", "tracks_and_vias": "kicad", "connectivity": "kicad",
     "drc": "kicad", "saving": "kicad",
     "walkaround": "pcbdata", "mark_obstacles": "pcbdata", "finish": "pcbdata",
-    "candidates": "pcbdata", "masks": "pcbdata", "push_n_shove": "not implemented (issue 11)",
+    "candidates": "pcbdata", "masks": "pcbdata", "push_n_shove": "pcbdata",
 }
 
 Point = tuple[int, int]

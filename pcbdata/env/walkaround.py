@@ -239,6 +239,15 @@ class WalkaroundRouter:
         self._cache: dict[CopperItem, _Prepared] = {}
         self.update(board)
 
+    def with_board(self, board: BoardGeometry) -> WalkaroundRouter:
+        """A router for another board (e.g. with items taken out or added), with this one's
+        budgets and prepared shapes (this router is unchanged)."""
+        other = WalkaroundRouter.__new__(WalkaroundRouter)
+        other.budget_nodes, other.budget_seconds = self.budget_nodes, self.budget_seconds
+        other._cache = dict(self._cache)
+        other.update(board)
+        return other
+
     def update(self, board: BoardGeometry) -> None:
         """Takes a new board snapshot; items seen before reuse their prepared shapes."""
         self.board = board

@@ -22,6 +22,11 @@ from pcbdata.kicad.scoring import clusters_per_net, copper_labels, copper_totals
 #: The one board of this worker: {"board", "layers": {name: id}, "pads": [PAD], "path"}.
 _STATE: dict = {}
 _STAGED = [0]  # instances staged by this worker: each gets its own folder
+#: KiCad mints random UUIDs (for the items it adds at load, such as footprint properties the
+#: file lacks, and for new tracks and vias): loading seeds them with UUID_SEED and the n-th
+#: `apply` of an episode with UUID_SEED + n, so a saved board is the same bytes in any worker,
+#: whatever the worker ran before.
+UUID_SEED = 20250301
 
 INSTANCE_FILES = {"board.kicad_pcb": ".kicad_pcb", "board.kicad_pro": ".kicad_pro",
                   "board.kicad_dru": ".kicad_dru"}
@@ -57,12 +62,14 @@ def open_instance(board: str, project: str, rules: str | None, stage_dir: str) -
     the first snapshot (with DRC)."""
     pcbnew = _pcbnew()
     _STATE.clear()
+    pcbnew.BOARD()  # a process's first BOARD draws one UUID (a static item): not after the seed
+    pcbnew.KIID.SeedGenerator(UUID_SEED)
     loaded = pcbnew.LoadBoard(_stage(board, project, rules, stage_dir))
     if loaded is None:
         raise ValueError(f"{board}: KiCad could not load the board")
     loaded.BuildConnectivity()
     layers = {loaded.GetLayerName(i): int(i) for i in loaded.GetEnabledLayers().CuStack()}
-    _STATE.update(board=loaded, layers=layers, pads=list(loaded.GetPads()))
+    _STATE.update(board=loaded, layers=layers, pads=list(loaded.GetPads()), applies=1)
     return {"static": _static(loaded), "snapshot": snapshot(True)}
 
 
@@ -238,13 +245,53 @@ def _add_via(board, net, at: tuple, diameter: int, drill: int, top: int, bottom:
     board.Add(via)
 
 
+def _matching(board, edit: dict, layers: dict[str, int]) -> list:
+    """The items a removal names: straight tracks of that net, layer, ends (either way round)
+    and width ({"kind": "remove"}), or vias of that net at that point ({"kind": "remove_via"})."""
+    pcbnew = _pcbnew()
+    out = []
+    for item in board.GetTracks():
+        if str(item.GetNetname()) != edit["net"]:
+            continue
+        if edit["kind"] == "remove_via":
+            if item.Type() == pcbnew.PCB_VIA_T and _xy(item.GetPosition()) == tuple(edit["at"]):
+                out.append(item)
+        elif item.Type() == pcbnew.PCB_TRACE_T and item.GetLayer() == layers[edit["layer"]] \
+                and int(item.GetWidth()) == edit["width"] \
+                and {_xy(item.GetStart()), _xy(item.GetEnd())} == {tuple(edit["start"]),
+                                                                   tuple(edit["end"])}:
+            out.append(item)
+    return out
+
+
+def _xy(point) -> tuple[int, int]:
+    return int(point.x), int(point.y)
+
+
+def _remove(board, edit: dict, layers: dict[str, int]) -> None:
+    found = _matching(board, edit, layers)
+    if not found:
+        what = "via" if edit["kind"] == "remove_via" else "track"
+        raise ValueError(f"no {what} of net {edit['net']!r} to remove at "
+                         f"{edit.get('at') or (edit['start'], edit['end'])}")
+    for item in found:
+        board.Delete(item)  # never Remove: it leaves the item half-owned and damages pcbnew
+
+
 def apply(edits: list[dict], drc: bool = False) -> dict:
     """Adds tracks ({"kind": "track", net, layer, points, width}) and through vias
-    ({"kind": "via", net, at, diameter, drill}) as KiCad items; returns `snapshot(drc)`."""
+    ({"kind": "via", net, at, diameter, drill}) as KiCad items and deletes the tracks and vias
+    that removals name ({"kind": "remove", net, layer, start, end, width};
+    {"kind": "remove_via", net, at}), in order; returns `snapshot(drc)`."""
     board = _board()
     layers = _STATE["layers"]
     nets = board.GetNetsByName()
+    _pcbnew().KIID.SeedGenerator(UUID_SEED + _STATE["applies"])
+    _STATE["applies"] += 1
     for edit in edits:
+        if edit["kind"] in ("remove", "remove_via"):
+            _remove(board, edit, layers)
+            continue
         net = nets[edit["net"]]
         if edit["kind"] == "track":
             _add_track(board, net, layers[edit["layer"]], edit["points"], edit["width"])

@@ -19,6 +19,7 @@ from pcbdata.env.types import (
     NET_SELECT,
     PUSH_N_SHOVE,
     START_ROUTE,
+    WALKAROUND,
 )
 
 
@@ -41,9 +42,8 @@ def test_phase_machine_masks(make_env):
     obs, info = env.reset(seed=0)
     assert info["phase"] == "no_net"
     assert list(info["action_mask"]["type"]) == [1, 1, 0, 0, 0, 0, 0]
-    assert info["action_mask"]["mode"].tolist() == [1, 1, 0]
-    assert list(info["masked_modes"]) == ["push_n_shove"]
-    assert "issue 11" in info["masked_modes"]["push_n_shove"]
+    assert info["action_mask"]["mode"].tolist() == [1, 1, 1]
+    assert info["masked_modes"] == {}
     obs, _, _, _, info = env.step(action(NET_SELECT, net=0))
     assert info["phase"] == "net" and list(info["action_mask"]["type"]) == [1, 1, 1, 1, 0, 0, 0]
     obs, _, _, _, info = _start(env)
@@ -76,11 +76,16 @@ def test_bad_action_is_a_no_op_with_reason(make_env, bad, reason):
                                   obs0["routing_geometry"]["tracks"])
 
 
-def test_push_n_shove_is_masked_with_reason(make_env):
-    env = make_env()
-    _start(env)
-    _, _, _, _, info = env.step(action(FINISH, mode=PUSH_N_SHOVE))
-    assert "issue 11" in info["rejected"]
+def test_push_n_shove_without_blockers_routes_like_walkaround(make_env):
+    runs = []
+    for mode in (WALKAROUND, PUSH_N_SHOVE):
+        env = make_env()
+        env.reset(seed=0, options={"index": 0})
+        _start(env)
+        obs, reward, _, _, info = env.step(action(FINISH, mode=mode))
+        runs.append((obs["routing_geometry"]["tracks"], reward, info["router"]["ok"]))
+    np.testing.assert_array_equal(runs[0][0], runs[1][0])
+    assert runs[0][1:] == runs[1][1:] == (runs[0][1], True)
 
 
 def test_mark_obstacles_finish_connects_and_rewards(make_env):

@@ -1,0 +1,110 @@
+"""Benchmark of push_n_shove: how often it routes where walkaround could not, and what it does
+to the scripted agent's CP.
+
+Per board, two episodes (DRC at the end; the agents do not read the DRC): the scripted agent
+(walkaround only) and the same agent with the push_n_shove fallback (`scripted-shove`: every
+`finish` that walkaround could not route is tried once more in push_n_shove mode). Counts the
+fallback's tries, its successes (tracks of other nets moved, or a path found without moving
+any) and the undone ones; then CP @1 of both agents' boards by `pcbdata eval`.
+
+    .venv/bin/python bench/bench_shove.py [--config d2] [--set SET] [--limit N]
+        [--json bench/results/shove.json]
+D2 configs are generated when --set is not given; D3 needs --set (a `pcbdata build d3` output).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import tempfile
+import time
+from collections import Counter
+from datetime import UTC, datetime
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+
+def _episodes(root: Path, config: str, limit: int, shove: bool, runs: Path) -> dict:
+    import gymnasium as gym
+
+    import pcbdata.env  # noqa: F401
+    from pcbdata.env.agents import ScriptedAgent
+    from pcbdata.env.types import FINISH, PUSH_N_SHOVE
+
+    env = gym.make(f"pcbdata/Route-{config}-v0", root=str(root), split="test", drc="terminal")
+    tries, times = Counter(), []
+    for board_id in env.unwrapped.source.board_ids[:limit]:
+        agent, began = ScriptedAgent(seed=0, shove=shove), time.perf_counter()
+        obs, info = env.reset(options={"board_id": board_id})
+        while True:
+            act = agent.act(obs, info)
+            if agent.done:
+                break
+            obs, _, terminated, truncated, info = env.step(act)
+            if act["type"] == FINISH and act["mode"] == PUSH_N_SHOVE:
+                tries.update(_outcome(info["router"]))
+            if terminated or truncated:
+                break
+        times.append(time.perf_counter() - began)
+        (runs / board_id).mkdir(parents=True, exist_ok=True)
+        env.unwrapped.save(runs / board_id / "0.kicad_pcb")
+    env.close()
+    return {"tries": dict(tries), "median_episode_s": statistics.median(times)}
+
+
+def _outcome(router: dict) -> list[str]:
+    if router["ok"]:
+        moved = router["stats"].get("method") == "shove"
+        return ["tries", "routed", "routed_moving_tracks" if moved else "routed_without_moving"]
+    return ["tries", "undone" if "undone" in router["reason"] else "failed"]
+
+
+def _write_set(root: Path, config: str, limit: int) -> None:
+    from tests.env.conftest import write_set
+
+    write_set(root, config, "test", limit)
+
+
+def main() -> int:
+    from _measure import machine
+
+    from pcbdata.evaluator.runs import evaluate_set
+
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", default="d2")
+    parser.add_argument("--set", help="a built set holding <config>/test (default: generated)")
+    parser.add_argument("--limit", type=int, default=128)
+    parser.add_argument("--json", help="write the figures here")
+    args = parser.parse_args()
+    result: dict = {"machine": machine(), "config": args.config, "limit": args.limit,
+                    "date": datetime.now(UTC).isoformat(timespec="minutes"),
+                    "load_before": os.getloadavg()}
+    with tempfile.TemporaryDirectory(prefix="bench-shove-") as tmp:
+        root = Path(args.set) if args.set else Path(tmp) / "set"
+        if not args.set:
+            if not args.config.startswith("d2"):
+                parser.error("--set is needed for D1 and D3 configs")
+            _write_set(root, args.config, args.limit)
+        for name, shove in (("scripted", False), ("scripted-shove", True)):
+            runs = Path(tmp) / name
+            figures = _episodes(root, args.config, args.limit, shove, runs)
+            report = evaluate_set(root, args.config, "test", Path(tmp) / f"report-{name}",
+                                  runs=runs, k=1, workers=2, progress=False, limit=args.limit)
+            figures["eval"] = {key: report["summary"][key]
+                               for key in ("cp", "cp_strict", "pot", "rout", "drv", "wl", "via")}
+            result[name] = figures
+            print(name, json.dumps(figures, sort_keys=True), flush=True)
+    result["load_after"] = os.getloadavg()
+    text = json.dumps(result, indent=1, sort_keys=True, default=str)
+    print(text)
+    if args.json:
+        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
+        Path(args.json).write_text(text + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,23 @@
+"""A saved rollout board is the same bytes whatever the worker ran before: KiCad mints random
+UUIDs (for the footprint properties it adds at load, for new tracks and vias), which
+`routing_session` seeds per episode, so `pcbdata rollout` gives the same files on any worker
+and any executor (tests/env/test_rollout_ray.py compares local and Ray)."""
+from __future__ import annotations
+
+from pcbdata.env.rollout import make_agent, run_episode
+
+
+def _episode(env, board_id: str, path) -> bytes:
+    run_episode(env, make_agent("scripted", 0), board_id, 0)
+    env.unwrapped.save(str(path))
+    return path.read_bytes()
+
+
+def test_the_same_episode_saves_the_same_bytes_in_any_worker(make_env, tmp_path):
+    env = make_env("d2", max_steps=30)
+    first = _episode(env, "board_00000", tmp_path / "a.kicad_pcb")  # the worker's first board
+    _episode(env, "board_00001", tmp_path / "b.kicad_pcb")
+    again = _episode(env, "board_00000", tmp_path / "c.kicad_pcb")  # after other episodes
+    fresh = _episode(make_env("d2", max_steps=30), "board_00000", tmp_path / "d.kicad_pcb")
+    assert b"(segment" in first
+    assert first == again == fresh
