@@ -12,7 +12,16 @@ import pytest
 from pcbdata.env.llm import STOP, LLMWrapper, run_episode
 from pcbdata.env.llm_standin import ScriptedModel, as_reply
 from pcbdata.env.llm_tools import VERBS, parse_reply, tool_schema
-from pcbdata.env.types import FINISH, IDLE, MAKE_LINE, MAKE_VIA, NET_END, NET_SELECT, START_ROUTE
+from pcbdata.env.types import (
+    FINISH,
+    IDLE,
+    MAKE_LINE,
+    MAKE_VIA,
+    MODES,
+    NET_END,
+    NET_SELECT,
+    START_ROUTE,
+)
 
 NETS = ["GND", "Net-(R1-Pad1)", "VCC"]
 SLOTS = 64
@@ -158,6 +167,7 @@ class InjectingModel:
         self.pending = [reply for reply, _ in OPENING]
         self.seen: list[list[dict]] = []
         self.repeated = self.masked_mode = False
+        self.masked_reply = ""
 
     def __call__(self, messages, tools):
         assert tools == self.wrapper.tools
@@ -172,7 +182,8 @@ class InjectingModel:
             self.pending.append(reply)
         elif call.startswith("finish") and not self.masked_mode:
             self.masked_mode = True
-            self.pending.append(self._masked_line())
+            self.masked_reply = self._masked_line()
+            self.pending.append(self.masked_reply)
         return reply
 
     def _masked_line(self) -> str:
@@ -238,7 +249,9 @@ def test_scripted_episode_paths_history_streak_and_score(board_set, make_env, ki
     outcomes = [r.outcome for r in records]
     assert outcomes[first_ok + 1] == "no effect: nothing changed"
     assert any(o.startswith("no effect: router failed (finish: no path") for o in outcomes)
-    assert any(o.startswith("rejected: make_line: mode push_n_shove") for o in outcomes)
+    masked = next(r for r in records if r.reply == model.masked_reply)
+    assert re.fullmatch(r"rejected: make_line: (mode push_n_shove: .+|candidate \d+ is masked)",
+                        masked.outcome), masked.outcome
     texts = [m[-1]["content"] for m in model.seen]
     assert any("-> no effect: nothing changed" in t for t in texts)
     assert any("-> no effect: router failed" in t for t in texts)
@@ -246,7 +259,8 @@ def test_scripted_episode_paths_history_streak_and_score(board_set, make_env, ki
     # allowed verbs come from the masks
     assert "Allowed now: net_select(net)." in texts[0]
     assert "Allowed now: net_select(net), net_end(), start_route(point)." in texts[first_ok + 1]
-    assert "Modes: walkaround, mark_obstacles." in texts[0]
+    modes = [m for m, on in zip(MODES, env.unwrapped.action_masks()["mode"], strict=True) if on]
+    assert f"Modes: {', '.join(modes)}." in texts[0]
 
     # the saved board scores as the episode says
     saved = tmp_path / "llm.kicad_pcb"
