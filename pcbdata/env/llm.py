@@ -39,9 +39,10 @@ Work net by net: net_select a net with open connections, start_route on one of i
 points (a pad), then make_line / make_via to candidate points or finish (routes to the nearest
 pad of the net not yet joined to the head's copper), and net_end when the net is done.
 Candidate points are listed per step with an index, a kind and what they are allowed for;
-indices change from step to step, so use the current list. Modes: walkaround routes around
-other nets' copper (it may find no path: nothing changes), mark_obstacles lays the line
-straight and lets DRC mark the violations.
+indices change from step to step, so use the current list. Modes (each step lists those
+available): walkaround routes around other nets' copper (it may find no path: nothing
+changes), mark_obstacles lays the line straight and lets DRC mark the violations,
+push_n_shove moves other nets' tracks out of the way when walkaround finds no path.
 Reply with exactly one tool call, or one line of text such as make_line(3, walkaround) or
 net_select("NET1"). Anything else is refused (the step still counts) and the next message
 says why. The board's static part follows; each step's message gives the changing part."""
