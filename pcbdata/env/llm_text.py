@@ -115,7 +115,7 @@ def dynamic_text(obs: dict, info: dict, names: Names) -> str:
     return "\n".join([
         f"(state (step {int(obs['step'])}) (phase {PHASES[int(head['phase'])]}) "
         f"(net {names.net(head['net'])}) {_head(head, names)}",
-        f"{_INDENT}(unconnected {int(geo['unconnected'])}) (drc_violations "
+        f"{_INDENT}(unconnected {int(geo['unconnected'])}) (violations "
         f"{int(obs['drc']['total'])})",
         _tracks(geo, names),
         _vias(geo, names),
