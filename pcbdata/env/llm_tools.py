@@ -232,6 +232,8 @@ def _text_arguments(verb: str, inner: str) -> list | dict:
     """Positional values (list) or keyword values (dict) of a text call."""
     if not inner.strip():
         return []
+    if inner.rstrip().endswith(","):
+        raise ReplyError(f"{verb}: an argument is missing after the last comma")
     tokens, position = [], 0
     while position < len(inner):
         match = _TOKEN.match(inner, position)

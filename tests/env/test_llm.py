@@ -92,6 +92,7 @@ BAD = [
     (_tool("teleport", "{}"), "unknown verb 'teleport'"),
     ("net_end(3)", "net_end takes no arguments, got 1"),
     ("make_line()", "make_line takes (point, mode=walkaround), got 0"),
+    ("make_line(3,)", "an argument is missing after the last comma"),
     ("make_line(1, walkaround, 3)", "make_line takes (point, mode=walkaround), got 3"),
     (_tool("make_line", '{"point": 1, "speed": 2}'), "unknown argument(s) ['speed']"),
     (_tool("start_route", "{}"), "start_route: missing argument(s) ['point']"),
