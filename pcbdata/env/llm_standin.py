@@ -1,0 +1,48 @@
+"""A scripted stand-in for a language model (tests, examples without an API key): the shipped
+`ScriptedAgent` decides from the wrapper's raw observation, and its action is sent back as a
+model would send it, as text (`make_line(3, walkaround)`) or as a tool call. It reads
+`LLMWrapper.last_obs` / `last_info`, which a real model never sees."""
+from __future__ import annotations
+
+import json
+
+from pcbdata.env.agents import ScriptedAgent
+from pcbdata.env.llm import STOP, LLMWrapper
+from pcbdata.env.llm_tools import action_call, call_text
+
+STYLES = ("text", "tool_calls", "bare", "alternate")
+
+
+def as_reply(action: dict, net_names, style: str, index: int = 0):
+    """An environment action as a model's reply in `style` (`alternate`: text, tool_calls,
+    bare in turn by `index`)."""
+    if style == "alternate":
+        style = STYLES[index % 3]
+    verb, arguments = action_call(action, net_names)
+    if style == "text":
+        return call_text(verb, arguments)
+    call = {"name": verb, "arguments": json.dumps(arguments)}
+    if style == "bare":
+        return {"name": verb, "arguments": arguments}
+    return {"role": "assistant", "content": None,
+            "tool_calls": [{"id": f"call_{index}", "type": "function", "function": call}]}
+
+
+class ScriptedModel:
+    """`reply = model(messages, tools)` backed by `ScriptedAgent`; `STOP` when it is done."""
+
+    def __init__(self, wrapper: LLMWrapper, style: str = "alternate", seed: int = 0):
+        if style not in STYLES:
+            raise ValueError(f"style {style!r}: one of {', '.join(STYLES)}")
+        self.wrapper, self.style = wrapper, style
+        self.agent = ScriptedAgent(seed=seed)
+        self.calls = 0
+
+    def __call__(self, messages: list[dict], tools: list[dict]):
+        obs, info = self.wrapper.last_obs, self.wrapper.last_info
+        assert obs is not None and info is not None, "the wrapper has not been reset"
+        action = self.agent.act(obs, info)
+        if self.agent.done:
+            return STOP
+        self.calls += 1
+        return as_reply(action, self.wrapper.net_names, self.style, self.calls)
