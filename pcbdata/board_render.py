@@ -1,0 +1,167 @@
+"""`pcbdata render`: PNG pictures of boards (routed or bare) with `pcbdata.drawing`.
+
+KiCad reads each board into plain records in `KicadPool` workers
+(`pcbdata.kicad.board_records`); drawing and writing happen here. A board that cannot be read
+(missing, cut, not loadable) gives a reason for its picture; the others are still drawn.
+"""
+from __future__ import annotations
+
+import csv
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pcbdata.drawing import draw_board, png_bytes, side_by_side
+from pcbdata.errors import UserError
+from pcbdata.fsutil import output_folder, write_atomic
+from pcbdata.kicad import KicadPool
+from pcbdata.sexpr_text import cut_problem
+from pcbdata.tree import BOARD_FILE, REFERENCE_FILE, board_dir
+
+READ = "pcbdata.kicad.board_records:read_board"
+#: Pixels of one panel (width, height); a picture with a reference has two panels.
+PANEL_SIZE = (640, 480)
+
+
+@dataclass
+class Picture:
+    """One PNG to write: `name` (its path under OUT, without `.png`) and its panels
+    (title, board file), drawn side by side."""
+
+    name: str
+    panels: list[tuple[str, Path]] = field(default_factory=list)
+
+
+def boards_under(target: Path) -> list[Picture]:
+    """A `.kicad_pcb` file, or every `.kicad_pcb` under a folder (a set tree, a RUNS folder),
+    one picture each, named by its path under the folder."""
+    if target.is_file():
+        if target.suffix != ".kicad_pcb":
+            raise UserError(f"{target}: not a .kicad_pcb file or a folder of boards")
+        return [Picture(target.stem, [(target.stem, target)])]
+    if not target.is_dir():
+        raise UserError(f"{target}: no such file or folder")
+    found = sorted(target.rglob("*.kicad_pcb"))
+    if not found:
+        raise UserError(f"{target}: holds no .kicad_pcb files")
+    pictures = []
+    for path in found:
+        rel = path.relative_to(target).with_suffix("")
+        pictures.append(Picture(rel.as_posix(), [(rel.as_posix(), path)]))
+    return pictures
+
+
+def _best_rollouts(report: Path) -> list[tuple[str, str | None]]:
+    """(board_id, best rollout or None) from an eval report's per_board.csv."""
+    table = report / "per_board.csv"
+    if not table.is_file():
+        raise UserError(f"--report {report}: no per_board.csv (a `pcbdata eval` report folder)")
+    with open(table, newline="", encoding="utf-8") as handle:
+        rows = list(csv.DictReader(handle))
+    if rows and not {"board_id", "best_rollout"} <= set(rows[0]):
+        raise UserError(f"{table}: no board_id/best_rollout columns")
+    return [(r["board_id"], r["best_rollout"] or None) for r in rows]
+
+
+def best_of_report(runs: Path, report: Path, instances: Path | None) -> list[Picture]:
+    """Per board of the report, its best rollout (RUNS/<board_id>/<best>.kicad_pcb) next to
+    the reference routing of `instances` (the set's config/split folder) when the instance has
+    one; boards without a scored rollout are drawn bare (the task) with a note in the title."""
+    if not runs.is_dir():
+        raise UserError(f"{runs}: no such RUNS folder")
+    pictures = []
+    for board_id, best in _best_rollouts(report):
+        picture = Picture(board_id)
+        if best is not None:
+            picture.panels.append((f"{board_id} rollout {best}", runs / board_id /
+                                   f"{best}.kicad_pcb"))
+        folder = instances / board_id if instances is not None else None
+        if folder is not None and (folder / REFERENCE_FILE).is_file():
+            picture.panels.append((f"{board_id} reference", folder / REFERENCE_FILE))
+        elif folder is not None and best is None:
+            picture.panels.append((f"{board_id} task (no scored rollout)", folder / BOARD_FILE))
+        if picture.panels:
+            pictures.append(picture)
+    return pictures
+
+
+def _precheck(path: Path) -> str | None:
+    """Why KiCad should not be given this file, or None (KiCad's parser can spin on a cut
+    file, so it is checked here first)."""
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        return f"{path}: cannot read ({exc.strerror or exc})"
+    problem = cut_problem(data)
+    return f"{path}: {problem}" if problem else None
+
+
+def read_boards(paths: list[Path], workers: int, timeout: float) -> dict[Path, dict | str]:
+    """Records (dict) or the reason (str) per board file."""
+    out: dict[Path, dict | str] = {}
+    todo = []
+    for path in paths:
+        problem = _precheck(path)
+        if problem:
+            out[path] = problem
+        else:
+            todo.append(path)
+    if todo:
+        with KicadPool(workers=min(workers, len(todo)), task_timeout=timeout) as pool:
+            for outcome in pool.map(READ, [(str(p),) for p in todo]):
+                path = todo[outcome.index]
+                out[path] = outcome.value if outcome.ok else f"{path}: {outcome.error}"
+    return out
+
+
+def draw_picture(picture: Picture, records: dict[Path, dict | str],
+                 size: tuple[int, int] = PANEL_SIZE) -> bytes | str:
+    """The picture's PNG bytes, or the reason it cannot be drawn."""
+    images, titles = [], []
+    for title, path in picture.panels:
+        got = records[path]
+        if isinstance(got, str):
+            return got
+        images.append(draw_board(got, size))
+        titles.append(f"{title}: {len(got['ratsnest'])} open")
+    return png_bytes(side_by_side(images, titles))
+
+
+def render_boards(target: str | Path, out: str | Path, *, report: str | Path | None = None,
+                  instances: str | Path | None = None, workers: int = 2,
+                  timeout: float = 120.0, size: tuple[int, int] = PANEL_SIZE,
+                  log: Callable[[str], None] = print) -> dict:
+    """Draws the boards of `target` (see `boards_under`; with `report`, `best_of_report`) into
+    OUT/<name>.png. Returns {"written", "failed": [reasons], "seconds"}."""
+    began = time.perf_counter()
+    target = Path(target)
+    if report is not None:
+        pictures = best_of_report(target, Path(report),
+                                  Path(instances) if instances is not None else None)
+    else:
+        pictures = boards_under(target)
+    out = output_folder(out)
+    paths = sorted({path for p in pictures for _, path in p.panels})
+    records = read_boards(paths, workers, timeout)
+    written, failed = 0, []
+    for k, picture in enumerate(pictures, start=1):
+        result = draw_picture(picture, records, size)
+        if isinstance(result, str):
+            failed.append(f"{picture.name}: {result}")
+            log(f"[{k}/{len(pictures)}] {picture.name}: not drawn ({result})")
+            continue
+        destination = out / f"{picture.name}.png"
+        destination.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(destination, result)
+        written += 1
+        log(f"[{k}/{len(pictures)}] {picture.name}.png")
+    return {"written": written, "failed": failed, "seconds": time.perf_counter() - began}
+
+
+def instance_folder(set_root: str | Path, config: str, split: str) -> Path:
+    """The set's config/split folder (instances and references), checked."""
+    folder = board_dir(set_root, config, split, "x").parent
+    if not folder.is_dir():
+        raise UserError(f"--set {set_root}: no {config}/{split} folder")
+    return folder
