@@ -97,8 +97,8 @@ def _precheck(path: Path) -> str | None:
     return f"{path}: {problem}" if problem else None
 
 
-def read_boards(paths: list[Path], workers: int, timeout: float) -> dict[Path, dict | str]:
-    """Records (dict) or the reason (str) per board file."""
+def read_boards(paths: list[Path], pool: KicadPool) -> dict[Path, dict | str]:
+    """Records (dict) or the reason (str) per board file, read in `pool`'s workers."""
     out: dict[Path, dict | str] = {}
     todo = []
     for path in paths:
@@ -107,11 +107,9 @@ def read_boards(paths: list[Path], workers: int, timeout: float) -> dict[Path, d
             out[path] = problem
         else:
             todo.append(path)
-    if todo:
-        with KicadPool(workers=min(workers, len(todo)), task_timeout=timeout) as pool:
-            for outcome in pool.map(READ, [(str(p),) for p in todo]):
-                path = todo[outcome.index]
-                out[path] = outcome.value if outcome.ok else f"{path}: {outcome.error}"
+    for outcome in pool.map(READ, [(str(p),) for p in todo]):
+        path = todo[outcome.index]
+        out[path] = outcome.value if outcome.ok else f"{path}: {outcome.error}"
     return out
 
 
@@ -143,7 +141,8 @@ def render_boards(target: str | Path, out: str | Path, *, report: str | Path | N
         pictures = boards_under(target)
     out = output_folder(out)
     paths = sorted({path for p in pictures for _, path in p.panels})
-    records = read_boards(paths, workers, timeout)
+    with KicadPool(workers=max(1, min(workers, len(paths))), task_timeout=timeout) as pool:
+        records = read_boards(paths, pool)
     written, failed = 0, []
     for k, picture in enumerate(pictures, start=1):
         result = draw_picture(picture, records, size)

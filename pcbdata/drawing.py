@@ -76,12 +76,12 @@ def _extent(records: dict) -> list[tuple[int, int]]:
     """Points that must be in the picture: the outline, else every item."""
     points = [tuple(p) for ring in records.get("outline", []) for p in ring]
     if points:
-        return points  # type: ignore[return-value]
+        return points
     points = [(p["x"], p["y"]) for p in records.get("pads", [])]
     for track in records.get("tracks", []):
         points += [tuple(track["start"]), tuple(track["end"])]
     points += [(v["x"], v["y"]) for v in records.get("vias", [])]
-    return points  # type: ignore[return-value]
+    return points
 
 
 def _arc_points(start, mid, end, steps: int = 16) -> list[tuple[float, float]]:
