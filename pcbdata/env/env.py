@@ -41,7 +41,12 @@ from pcbdata.env.types import (
 
 
 class RoutingEnv(gym.Env):
-    metadata = {"render_modes": RENDER_MODES, "render_fps": 4}
+    @property
+    def metadata(self) -> dict:  # type: ignore[override]
+        # A property, so that gym.make hands render_mode="human" to __init__ (a clear error
+        # naming the allowed modes) instead of wrapping the env in pygame's HumanRendering.
+        return {"render_modes": list(RENDER_MODES), "render_fps": 4}
+
     # Set by __init__ / reset(); steps run only after reset() (Gymnasium's order).
     action_space: spaces.Dict
     observation_space: spaces.Dict
