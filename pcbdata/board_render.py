@@ -12,6 +12,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from pcbdata.drawing import draw_board, png_bytes, side_by_side
 from pcbdata.errors import UserError
 from pcbdata.fsutil import output_folder, write_atomic
@@ -114,8 +116,8 @@ def read_boards(paths: list[Path], pool: KicadPool) -> dict[Path, dict | str]:
 
 
 def draw_picture(picture: Picture, records: dict[Path, dict | str],
-                 size: tuple[int, int] = PANEL_SIZE) -> bytes | str:
-    """The picture's PNG bytes, or the reason it cannot be drawn."""
+                 size: tuple[int, int] = PANEL_SIZE) -> np.ndarray | str:
+    """The picture (RGB array), or the reason it cannot be drawn."""
     images, titles = [], []
     for title, path in picture.panels:
         got = records[path]
@@ -123,7 +125,7 @@ def draw_picture(picture: Picture, records: dict[Path, dict | str],
             return got
         images.append(draw_board(got, size))
         titles.append(f"{title}: {len(got['ratsnest'])} open")
-    return png_bytes(side_by_side(images, titles))
+    return side_by_side(images, titles)
 
 
 def render_boards(target: str | Path, out: str | Path, *, report: str | Path | None = None,
@@ -152,7 +154,7 @@ def render_boards(target: str | Path, out: str | Path, *, report: str | Path | N
             continue
         destination = out / f"{picture.name}.png"
         destination.parent.mkdir(parents=True, exist_ok=True)
-        write_atomic(destination, result)
+        write_atomic(destination, png_bytes(result))
         written += 1
         log(f"[{k}/{len(pictures)}] {picture.name}.png")
     return {"written": written, "failed": failed, "seconds": time.perf_counter() - began}

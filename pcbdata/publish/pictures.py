@@ -4,17 +4,15 @@ records KiCad reads in workers, `pcbdata.kicad.board_records`)."""
 from __future__ import annotations
 
 import base64
-import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from html import escape
 from pathlib import Path
 
-from PIL import Image
-
 from pcbdata.board_render import Picture, draw_picture, read_boards
 from pcbdata.configs import D3_TIERS
+from pcbdata.drawing import png_bytes
 from pcbdata.kicad import KicadPool
 from pcbdata.publish.layout import write_file
 
@@ -211,8 +209,8 @@ class PreviewRenderer:
             if isinstance(drawn, str):
                 problems.append(drawn)
                 continue
-            width, height = Image.open(io.BytesIO(drawn)).size
-            write_file(out_path, preview_svg(drawn, width, height, out_path.stem))
+            height, width = drawn.shape[:2]
+            write_file(out_path, preview_svg(png_bytes(drawn), width, height, out_path.stem))
             problems.append(None)
         return problems
 

@@ -134,3 +134,12 @@ def test_drawing_is_pure_and_fits_the_size():
     assert drawing.png_bytes(image) == drawing.png_bytes(drawing.draw_board(records, (300, 100)))
     # a 2:1 board in a 300 x 100 picture: the height limits the scale, the sides stay background
     assert count(image[:, :40], drawing.BACKGROUND) == 40 * 100
+
+
+def test_pillow_is_imported_only_by_the_drawing_module():
+    from tests.conftest import REPO_ROOT
+
+    importers = sorted(str(p.relative_to(REPO_ROOT)) for p in (REPO_ROOT / "pcbdata").rglob("*.py")
+                       if any(line.startswith(("import PIL", "from PIL"))
+                              for line in p.read_text(encoding="utf-8").splitlines()))
+    assert importers == ["pcbdata/drawing.py"]
