@@ -103,13 +103,27 @@ def test_bad_boards_are_reasons_while_the_others_are_drawn(routed, tmp_path, cap
     (["RUNS", "--report", "REPORT", "--set", "SET"], "--set needs --config"),
     (["RUNS", "--report", "REPORT", "--set", "SET", "--config", "d2", "--split", "train"],
      "no d2/train folder"),
+    (["RUNS", "--workers", "0"], "argument --workers"),
+    (["RUNS", "--timeout", "nan"], "argument --timeout"),
+    (["REPORT/per_board.csv"], "not a .kicad_pcb file or a folder of boards"),
 ])
 def test_bad_arguments_are_one_line(routed, tmp_path, capsys, args, message):
     names = {"MISSING": str(tmp_path / "missing.kicad_pcb"), "RUNS": str(routed["runs"]),
-             "REPORT": str(routed["report"]), "SET": str(routed["set"])}
+             "REPORT": str(routed["report"]), "SET": str(routed["set"]),
+             "REPORT/per_board.csv": str(routed["report"] / "per_board.csv")}
     out = tmp_path / "out"
-    code = main(["render", *[names.get(a, a) for a in args], "--out", str(out)])
+    try:
+        code = main(["render", *[names.get(a, a) for a in args], "--out", str(out)])
+    except SystemExit as exc:  # argparse
+        code = exc.code
     lines = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(lines) == 1 and lines[0].startswith("pcbdata: error: ")
     assert message in lines[0]
     assert not out.exists()
+
+
+def test_out_that_is_a_file_is_one_line(routed, tmp_path, capsys):
+    (tmp_path / "taken").write_text("x")
+    code = main(["render", str(routed["runs"]), "--out", str(tmp_path / "taken")])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and err.startswith("pcbdata: error: --out") and "not a folder" in err
