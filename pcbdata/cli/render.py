@@ -1,6 +1,7 @@
 """`pcbdata render`: PNG pictures of boards (copper per layer, pads, vias, ratsnest)."""
 from __future__ import annotations
 
+import argparse
 import os
 import sys
 
@@ -26,9 +27,20 @@ def register(parser) -> None:
     parser.add_argument("--split", default="test", help="with --set: split (default: test)")
     parser.add_argument("--workers", type=checks.workers, default=os.cpu_count() or 1,
                         help="KiCad worker processes reading boards (default: cores)")
+    parser.add_argument("--size", type=panel_size, default=(640, 480), metavar="WxH",
+                        help="pixels of one board panel (default: 640x480)")
     parser.add_argument("--timeout", type=checks.seconds, default=120.0,
                         help="seconds allowed per board (default: 120)")
     parser.set_defaults(run=run)
+
+
+def panel_size(text: str) -> tuple[int, int]:
+    """WxH, each from 32 to 8192 pixels."""
+    width, _, height = text.lower().partition("x")
+    if not (width.isdigit() and height.isdigit() and 32 <= int(width) <= 8192
+            and 32 <= int(height) <= 8192):
+        raise argparse.ArgumentTypeError(f"must be WxH with each from 32 to 8192, got {text!r}")
+    return int(width), int(height)
 
 
 def run(args) -> int:
@@ -42,7 +54,7 @@ def run(args) -> int:
     instances = instance_folder(args.set_root, args.config, args.split) \
         if args.set_root else None
     summary = render_boards(args.target, args.out, report=args.report, instances=instances,
-                            workers=args.workers, timeout=args.timeout)
+                            workers=args.workers, timeout=args.timeout, size=args.size)
     print(f"done: {summary['written']} pictures in {args.out}, {len(summary['failed'])} not "
           f"drawn, {summary['seconds']:.1f} s")
     if summary["failed"]:

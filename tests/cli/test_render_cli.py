@@ -50,6 +50,9 @@ def test_render_a_set_folder_and_runs_deterministically(routed, tmp_path, capsys
     runs_out = tmp_path / "runs"
     assert main(["render", str(routed["runs"]), "--out", str(runs_out)]) == 0
     routed_png = runs_out / "board_00000" / "0.png"
+    assert main(["render", str(routed["runs"]), "--out", str(tmp_path / "small"), "--size",
+                 "200x100"]) == 0
+    assert picture(tmp_path / "small" / "board_00001" / "0.png").shape == (100 + TITLE, 200, 3)
     assert ratsnest_pixels(picture(routed_png)) < ratsnest_pixels(picture(bare))
     assert main(["render", str(routed["runs"]), "--out", str(tmp_path / "again")]) == 0
     assert (tmp_path / "again" / "board_00000" / "0.png").read_bytes() == \
@@ -105,6 +108,7 @@ def test_bad_boards_are_reasons_while_the_others_are_drawn(routed, tmp_path, cap
      "no d2/train folder"),
     (["RUNS", "--workers", "0"], "argument --workers"),
     (["RUNS", "--timeout", "nan"], "argument --timeout"),
+    (["RUNS", "--size", "10x10"], "argument --size: must be WxH"),
     (["REPORT/per_board.csv"], "not a .kicad_pcb file or a folder of boards"),
 ])
 def test_bad_arguments_are_one_line(routed, tmp_path, capsys, args, message):
