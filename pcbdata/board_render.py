@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import csv
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -99,20 +99,24 @@ def _precheck(path: Path) -> str | None:
     return f"{path}: {problem}" if problem else None
 
 
-def read_boards(paths: list[Path], pool: KicadPool) -> dict[Path, dict | str]:
-    """Records (dict) or the reason (str) per board file, read in `pool`'s workers."""
-    out: dict[Path, dict | str] = {}
+def iter_records(paths: list[Path], pool: KicadPool) -> Iterator[tuple[Path, dict | str]]:
+    """(board file, records or the reason) as the boards are read in `pool`'s workers (files
+    that fail the pre-check first)."""
     todo = []
     for path in paths:
         problem = _precheck(path)
         if problem:
-            out[path] = problem
+            yield path, problem
         else:
             todo.append(path)
     for outcome in pool.map(READ, [(str(p),) for p in todo]):
         path = todo[outcome.index]
-        out[path] = outcome.value if outcome.ok else f"{path}: {outcome.error}"
-    return out
+        yield path, outcome.value if outcome.ok else f"{path}: {outcome.error}"
+
+
+def read_boards(paths: list[Path], pool: KicadPool) -> dict[Path, dict | str]:
+    """Records (dict) or the reason (str) per board file."""
+    return dict(iter_records(paths, pool))
 
 
 def draw_picture(picture: Picture, records: dict[Path, dict | str],
@@ -142,22 +146,46 @@ def render_boards(target: str | Path, out: str | Path, *, report: str | Path | N
     else:
         pictures = boards_under(target)
     out = output_folder(out)
-    paths = sorted({path for p in pictures for _, path in p.panels})
-    with KicadPool(workers=max(1, min(workers, len(paths))), task_timeout=timeout) as pool:
-        records = read_boards(paths, pool)
+    users: dict[Path, list[int]] = {}  # board file -> the pictures that show it
+    for k, picture in enumerate(pictures):
+        for path in {path for _, path in picture.panels}:
+            users.setdefault(path, []).append(k)
+    missing = [len({path for _, path in picture.panels}) for picture in pictures]
+    left = {path: len(ks) for path, ks in users.items()}
+    records: dict[Path, dict | str] = {}
     written, failed = 0, []
-    for k, picture in enumerate(pictures, start=1):
-        result = draw_picture(picture, records, size)
-        if isinstance(result, str):
-            failed.append(f"{picture.name}: {result}")
-            log(f"[{k}/{len(pictures)}] {picture.name}: not drawn ({result})")
-            continue
-        destination = out / f"{picture.name}.png"
-        destination.parent.mkdir(parents=True, exist_ok=True)
-        write_atomic(destination, png_bytes(result))
-        written += 1
-        log(f"[{k}/{len(pictures)}] {picture.name}.png")
+    with KicadPool(workers=max(1, min(workers, len(users))), task_timeout=timeout) as pool:
+        # Each picture is drawn as soon as its boards are read; a board's records are dropped
+        # once every picture showing it is drawn (a big set is never held in memory whole).
+        for path, got in iter_records(sorted(users), pool):
+            records[path] = got
+            for k in users[path]:
+                missing[k] -= 1
+                if missing[k]:
+                    continue
+                picture = pictures[k]
+                problem = _write(picture, records, out, size)
+                written += problem is None
+                failed += [f"{picture.name}: {problem}"] if problem else []
+                done = f"[{written + len(failed)}/{len(pictures)}] {picture.name}"
+                log(f"{done}: not drawn ({problem})" if problem else f"{done}.png")
+                for shown in {q for _, q in picture.panels}:
+                    left[shown] -= 1
+                    if not left[shown]:
+                        del records[shown]
     return {"written": written, "failed": failed, "seconds": time.perf_counter() - began}
+
+
+def _write(picture: Picture, records: dict[Path, dict | str], out: Path,
+           size: tuple[int, int]) -> str | None:
+    """Draws and writes one picture; the reason it cannot be drawn, or None."""
+    result = draw_picture(picture, records, size)
+    if isinstance(result, str):
+        return result
+    destination = out / f"{picture.name}.png"
+    destination.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(destination, png_bytes(result))
+    return None
 
 
 def instance_folder(set_root: str | Path, config: str, split: str) -> Path:
