@@ -99,9 +99,26 @@ def _precheck(path: Path) -> str | None:
     return f"{path}: {problem}" if problem else None
 
 
-def iter_records(paths: list[Path], pool: KicadPool) -> Iterator[tuple[Path, dict | str]]:
+def rules_for(path: Path, instances: Path | None) -> tuple[str | None, str | None]:
+    """(project, custom rules) a board is checked with: its instance's (`instances` /
+    <folder name>, for RUNS/<board_id>/<rollout>.kicad_pcb), else those beside it
+    (board.kicad_pro / .kicad_dru of a set's board folder, or <stem>.kicad_pro); (None, None):
+    KiCad's defaults."""
+    folder = instances / path.parent.name if instances is not None else path.parent
+    if not folder.is_dir():
+        folder = path.parent
+    for stem in ("board", path.stem):
+        project = folder / f"{stem}.kicad_pro"
+        if project.is_file():
+            rules = folder / f"{stem}.kicad_dru"
+            return str(project), str(rules) if rules.is_file() else None
+    return None, None
+
+
+def iter_records(paths: list[Path], pool: KicadPool, drc: bool = False,
+                 instances: Path | None = None) -> Iterator[tuple[Path, dict | str]]:
     """(board file, records or the reason) as the boards are read in `pool`'s workers (files
-    that fail the pre-check first)."""
+    that fail the pre-check first); with `drc`, DRC error markers (see `rules_for`)."""
     todo = []
     for path in paths:
         problem = _precheck(path)
@@ -109,7 +126,8 @@ def iter_records(paths: list[Path], pool: KicadPool) -> Iterator[tuple[Path, dic
             yield path, problem
         else:
             todo.append(path)
-    for outcome in pool.map(READ, [(str(p),) for p in todo]):
+    args = [(str(p), *rules_for(p, instances), True) if drc else (str(p),) for p in todo]
+    for outcome in pool.map(READ, args):
         path = todo[outcome.index]
         yield path, outcome.value if outcome.ok else f"{path}: {outcome.error}"
 
@@ -128,16 +146,18 @@ def draw_picture(picture: Picture, records: dict[Path, dict | str],
         if isinstance(got, str):
             return got
         images.append(draw_board(got, size))
-        titles.append(f"{title}: {len(got['ratsnest'])} open")
+        drc = f", {len(got['markers'])} DRC errors" if "markers" in got else ""
+        titles.append(f"{title}: {len(got['ratsnest'])} open{drc}")
     return side_by_side(images, titles)
 
 
 def render_boards(target: str | Path, out: str | Path, *, report: str | Path | None = None,
                   instances: str | Path | None = None, workers: int = 2,
                   timeout: float = 120.0, size: tuple[int, int] = PANEL_SIZE,
-                  log: Callable[[str], None] = print) -> dict:
+                  drc: bool = False, log: Callable[[str], None] = print) -> dict:
     """Draws the boards of `target` (see `boards_under`; with `report`, `best_of_report`) into
-    OUT/<name>.png. Returns {"written", "failed": [reasons], "seconds"}."""
+    OUT/<name>.png, with `drc` KiCad's DRC errors as markers. Returns {"written", "failed":
+    [reasons], "seconds"}."""
     began = time.perf_counter()
     target = Path(target)
     if report is not None:
@@ -157,7 +177,8 @@ def render_boards(target: str | Path, out: str | Path, *, report: str | Path | N
     with KicadPool(workers=max(1, min(workers, len(users))), task_timeout=timeout) as pool:
         # Each picture is drawn as soon as its boards are read; a board's records are dropped
         # once every picture showing it is drawn (a big set is never held in memory whole).
-        for path, got in iter_records(sorted(users), pool):
+        rules = Path(instances) if instances is not None else None
+        for path, got in iter_records(sorted(users), pool, drc, rules):
             records[path] = got
             for k in users[path]:
                 missing[k] -= 1

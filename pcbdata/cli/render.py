@@ -27,6 +27,9 @@ def register(parser) -> None:
     parser.add_argument("--split", default="test", help="with --set: split (default: test)")
     parser.add_argument("--workers", type=checks.workers, default=os.cpu_count() or 1,
                         help="KiCad worker processes reading boards (default: cores)")
+    parser.add_argument("--drc", action="store_true",
+                        help="mark KiCad's DRC errors (rules: the instance's with --set, else "
+                             "the .kicad_pro beside the board, else KiCad's defaults)")
     parser.add_argument("--size", type=panel_size, default=(640, 480), metavar="WxH",
                         help="pixels of one board panel (default: 640x480)")
     parser.add_argument("--timeout", type=checks.seconds, default=120.0,
@@ -54,7 +57,8 @@ def run(args) -> int:
     instances = instance_folder(args.set_root, args.config, args.split) \
         if args.set_root else None
     summary = render_boards(args.target, args.out, report=args.report, instances=instances,
-                            workers=args.workers, timeout=args.timeout, size=args.size)
+                            workers=args.workers, timeout=args.timeout, size=args.size,
+                            drc=args.drc)
     print(f"done: {summary['written']} pictures in {args.out}, {len(summary['failed'])} not "
           f"drawn, {summary['seconds']:.1f} s")
     if summary["failed"]:

@@ -11,12 +11,13 @@ import os
 import shutil
 import tempfile
 
-from pcbdata.kicad.basics import load_board
+from pcbdata.kicad.basics import load_board, stage_with_project
 from pcbdata.kicad.routing_session import (
     _graphics,
     _outline,
     _pad_record,
     _track_record,
+    _violations,
     _zones,
 )
 from pcbdata.kicad.scoring import copper_labels
@@ -73,12 +74,29 @@ def _records(board) -> dict:
             "unconnected": int(board.GetConnectivity().GetUnconnectedCount(False))}
 
 
-def read_board(path: str) -> dict:
-    """The board file's drawing records (KiCad reads a private copy: it writes lock files
-    beside the board it loads)."""
+def _markers(board) -> list[tuple[int, int]]:
+    """Positions (nm) of KiCad's DRC errors under the board's project, unconnected items left
+    out (the ratsnest shows them): the first item each violation names."""
+    return sorted((round(v["positions"][0][0] * 1e6), round(v["positions"][0][1] * 1e6))
+                  for v in _violations(board) if v["severity"] == "error"
+                  and v["section"] != "unconnected" and v["positions"])
+
+
+def read_board(path: str, project: str | None = None, rules: str | None = None,
+               drc: bool = False) -> dict:
+    """The board file's drawing records; with `drc`, the positions of KiCad's DRC errors under
+    `project` (and custom `rules`; KiCad's defaults without a project) as `markers`. KiCad
+    reads private copies (it writes lock files beside the board it loads)."""
     if not os.path.isfile(path):
         raise FileNotFoundError(f"{path}: no such board file")
     with tempfile.TemporaryDirectory(prefix="pcbdata-render-") as tmp:
-        copy = os.path.join(tmp, "board.kicad_pcb")
-        shutil.copyfile(path, copy)
-        return _records(load_board(copy))
+        if project is not None:
+            copy = stage_with_project(path, project, rules, tmp, stem="board")
+        else:
+            copy = os.path.join(tmp, "board.kicad_pcb")
+            shutil.copyfile(path, copy)
+        board = load_board(copy)
+        records = _records(board)
+        if drc:
+            records["markers"] = _markers(board)
+        return records

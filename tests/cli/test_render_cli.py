@@ -131,3 +131,29 @@ def test_out_that_is_a_file_is_one_line(routed, tmp_path, capsys):
     code = main(["render", str(routed["runs"]), "--out", str(tmp_path / "taken")])
     err = capsys.readouterr().err.strip()
     assert code == 2 and err.startswith("pcbdata: error: --out") and "not a folder" in err
+
+
+def test_drc_markers_on_a_board_with_crossing_tracks(routed, tmp_path):
+    import gymnasium as gym
+
+    import pcbdata.env  # noqa: F401
+    from tests.env.test_render import straight_lines_until_violation
+
+    folder = tmp_path / "boards" / "board_00000"
+    env = gym.make("pcbdata/Route-d2-v0", root=str(routed["set"]))
+    try:
+        _, info = env.reset(options={"index": 0})
+        straight_lines_until_violation(env, info)  # net 3 crosses net 1
+        env.unwrapped.save(folder / "board.kicad_pcb")
+    finally:
+        env.close()
+    shutil.copyfile(routed["set"] / "d2" / "test" / "board_00000" / "board.kicad_pro",
+                    folder / "board.kicad_pro")
+    marker = np.asarray(drawing.MARKER, np.uint8)
+    assert main(["render", str(folder / "board.kicad_pcb"), "--out", str(tmp_path / "plain")]) == 0
+    plain = picture(tmp_path / "plain" / "board.png")
+    assert not np.all(plain == marker, axis=-1).any()
+    assert main(["render", str(folder / "board.kicad_pcb"), "--drc", "--out",
+                 str(tmp_path / "drc")]) == 0
+    marked = picture(tmp_path / "drc" / "board.png")
+    assert np.all(marked == marker, axis=-1).sum() > 20
