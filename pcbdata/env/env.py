@@ -20,6 +20,7 @@ from pcbdata.env.actions import action_space, parse_action
 from pcbdata.env.errors import BoardLoadError, EngineFailure, EnvValueError
 from pcbdata.env.instances import instance_files, make_source
 from pcbdata.env.options import make_options
+from pcbdata.env.render import RENDER_MODES, RENDER_SIZE, state_records
 from pcbdata.env.reward import Telescope, board_state, canonical, counted, unconnected_from_clusters
 from pcbdata.env.session import KicadSession
 from pcbdata.env.static import static_board
@@ -40,7 +41,12 @@ from pcbdata.env.types import (
 
 
 class RoutingEnv(gym.Env):
-    metadata = {"render_modes": []}
+    @property
+    def metadata(self) -> dict:  # type: ignore[override]
+        # A property, so that gym.make hands render_mode="human" to __init__ (a clear error
+        # naming the allowed modes) instead of wrapping the env in pygame's HumanRendering.
+        return {"render_modes": list(RENDER_MODES), "render_fps": 4}
+
     # Set by __init__ / reset(); steps run only after reset() (Gymnasium's order).
     action_space: spaces.Dict
     observation_space: spaces.Dict
@@ -57,6 +63,9 @@ class RoutingEnv(gym.Env):
         self.source = make_source(self.config, o.root, o.split, o.rows, o.count)
         self.action_space = action_space(o.max_nets, o.max_candidates)
         self.observation_space = observation.observation_space(o)
+        if o.render_mode is not None and o.render_mode not in RENDER_MODES:
+            raise EnvValueError(f"render_mode={o.render_mode!r} is not supported; allowed: "
+                                f"{', '.join(RENDER_MODES)} (or None)")
         self.render_mode = o.render_mode
         self._session: KicadSession | None = None
         self.static = None
@@ -363,6 +372,19 @@ class RoutingEnv(gym.Env):
         if self._session is None:
             raise EnvValueError("nothing to save: call reset() first")
         return self._session.save(str(path))
+
+    def render(self):
+        """The current state as an RGB uint8 array (`pcbdata.drawing`; legend in
+        docs/render.md), drawn from the data the environment holds; None without a render
+        mode."""
+        if self.render_mode is None:
+            return None
+        if self.static is None:
+            raise EnvValueError("nothing to render: call reset() first")
+        from pcbdata.drawing import draw_board
+
+        records = state_records(self.static, self._snap, self._head, self._counted())
+        return draw_board(records, RENDER_SIZE)
 
     @property
     def board_id(self) -> str | None:

@@ -3,10 +3,10 @@
 Every KiCad call runs inside `KicadPool` worker processes (`pool.py`, started by exec of
 `worker.py`): `basics.py` (pcbnew:
 load, DRC, staging), `upgrade.py` (D3), `scoring.py` (evaluator), `specctra.py` (routing),
-`cli_tools.py` and `previews.py` (kicad-cli). Pure helpers: `drc_report.py` (the DRC report as
-plain data), `projectfile.py` (`.kicad_pro` JSON). Modules here import only the standard
-library, `pcbnew`, each other and pcbdata's leaf modules (`tests/kicad/test_layering.py`);
-policy (recipe tables, rules) arrives as plain data.
+`cli_tools.py` (kicad-cli), `board_records.py` (a board as drawing records). Pure helpers:
+`drc_report.py` (the DRC report as plain data), `projectfile.py` (`.kicad_pro` JSON). Modules
+here import only the standard library, `pcbnew`, each other and pcbdata's leaf modules
+(`tests/kicad/test_layering.py`); policy (recipe tables, rules) arrives as plain data.
 """
 from __future__ import annotations
 

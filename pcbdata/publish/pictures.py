@@ -1,15 +1,18 @@
 """Pictures for the dataset card: pad-count histograms (plain SVG written here) and board
-previews (`kicad-cli pcb export svg`, run in KiCad workers by `pcbdata.kicad.previews`)."""
+previews: the task with its ratsnest next to the reference routing (`pcbdata.drawing`, from
+records KiCad reads in workers, `pcbdata.kicad.board_records`)."""
 from __future__ import annotations
 
+import base64
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from html import escape
 from pathlib import Path
 
+from pcbdata.board_render import Picture, draw_picture, read_boards
 from pcbdata.configs import D3_TIERS
+from pcbdata.drawing import png_bytes
 from pcbdata.kicad import KicadPool
 from pcbdata.publish.layout import write_file
 
@@ -171,16 +174,23 @@ def _legend(plot: _Plot, series: dict[str, list[int]]) -> list[str]:
     return out
 
 
-class PreviewRenderer:
-    """Renders board previews in KiCad worker processes, one pool per publication; workers
-    start only when there is a preview to render. Previews are illustrations, never required:
-    a board that cannot be rendered gives a reason, not an error."""
+def preview_svg(png: bytes, width: int, height: int, title: str) -> str:
+    """An SVG page holding one PNG picture (the card's previews stay `.svg` files)."""
+    data = base64.b64encode(png).decode("ascii")
+    return (f'<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" '
+            f'viewBox="0 0 {width} {height}"><title>{escape(title)}</title>'
+            f'<image width="{width}" height="{height}" href="data:image/png;base64,{data}"/>'
+            f'</svg>\n')
 
-    RENDER = "pcbdata.kicad.previews:render_svg"
+
+class PreviewRenderer:
+    """Draws board previews (`pcbdata.drawing`) from records that KiCad reads in worker
+    processes (`pcbdata.kicad.board_records`), one pool per publication; workers start only
+    when there is a preview to draw. Previews are illustrations, never required: a board that
+    cannot be read gives a reason, not an error."""
 
     def __init__(self, workers: int = 2, timeout: float = 120.0):
-        self.timeout = timeout
-        self._pool = KicadPool(workers=workers, task_timeout=timeout + 60)
+        self._pool = KicadPool(workers=workers, task_timeout=timeout)
 
     def __enter__(self) -> PreviewRenderer:
         return self
@@ -188,24 +198,20 @@ class PreviewRenderer:
     def __exit__(self, *exc) -> None:
         self._pool.close()
 
-    def render(self, jobs: list[tuple[Path, Path]]) -> list[str | None]:
-        """Renders each (board file, output SVG) pair; returns, per pair, None or the reason
-        it could not. A board is rendered with the project of its own stem, if any."""
-        args = []
-        for board, _ in jobs:
-            project = board.with_suffix(".kicad_pro")
-            args.append((str(board), str(project) if project.is_file() else None, self.timeout))
-        problems: list[str | None] = [None] * len(jobs)
-        for outcome in self._pool.map(self.RENDER, args):
-            board, out_path = jobs[outcome.index]
-            value = outcome.value if outcome.ok else {"reason": outcome.error}
-            if "svg" not in value:
-                problems[outcome.index] = value["reason"]
+    def render(self, jobs: list[tuple[list[tuple[str, Path]], Path]]) -> list[str | None]:
+        """Draws each (panels, output SVG) pair, the panels (title, board file) side by side;
+        returns, per pair, None or the reason it could not."""
+        paths = sorted({path for panels, _ in jobs for _, path in panels})
+        records = read_boards(paths, self._pool)
+        problems: list[str | None] = []
+        for panels, out_path in jobs:
+            drawn = draw_picture(Picture(out_path.stem, panels), records)
+            if isinstance(drawn, str):
+                problems.append(drawn)
                 continue
-            # KiCad stamps the export time into the title; drop it so re-publishing is stable.
-            text = re.sub(r"<title>.*?</title>", f"<title>{escape(board.parent.name)}</title>",
-                          value["svg"], count=1, flags=re.S)
-            write_file(out_path, text)
+            height, width = drawn.shape[:2]
+            write_file(out_path, preview_svg(png_bytes(drawn), width, height, out_path.stem))
+            problems.append(None)
         return problems
 
 

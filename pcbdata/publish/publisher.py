@@ -168,9 +168,9 @@ def _stage_pictures(root: Path, stage: Path, config: str, cfg: dict, previews: i
                     renderer: pictures.PreviewRenderer) -> tuple[list[str], list[str]]:
     made = _stage_histogram(stage, config, cfg)
     jobs, rels = [], []
-    for board_id, source in _preview_sources(root, config, cfg, previews):
+    for board_id, panels in _preview_sources(root, config, cfg, previews):
         rels.append(f"{PICTURES_DIR}/{config}/{board_id}.svg")
-        jobs.append((source, stage / rels[-1]))
+        jobs.append((panels, stage / rels[-1]))
     notes = []
     for rel, problem in zip(rels, renderer.render(jobs), strict=True):
         if problem:
@@ -193,9 +193,11 @@ def _stage_histogram(stage: Path, config: str, cfg: dict) -> list[str]:
     return [rel]
 
 
-def _preview_sources(root: Path, config: str, cfg: dict, previews: int) -> list[tuple[str, Path]]:
-    """(board id, file to render) of the boards previewed on the card: the reference routing
-    when there is one, else the task."""
+def _preview_sources(root: Path, config: str, cfg: dict,
+                     previews: int) -> list[tuple[str, list[tuple[str, Path]]]]:
+    """(board id, panels) of the boards previewed on the card: the task (bare board, its
+    ratsnest lines show which pads must be joined), next to the reference routing when there
+    is one."""
     splits = cfg.get("splits", {})
     preview_split = "test" if "test" in splits else (sorted(splits, key=split_key) or [None])[0]
     if preview_split is None or previews <= 0:
@@ -206,8 +208,10 @@ def _preview_sources(root: Path, config: str, cfg: dict, previews: int) -> list[
     out = []
     for board_id in pictures.pick_previews(boards, previews):
         folder = board_dir(root, config, preview_split, board_id)
-        source = folder / REFERENCE_FILE
-        out.append((board_id, source if source.is_file() else folder / BOARD_FILE))
+        panels = [(f"{board_id} task", folder / BOARD_FILE)]
+        if (folder / REFERENCE_FILE).is_file():
+            panels.append((f"{board_id} reference", folder / REFERENCE_FILE))
+        out.append((board_id, panels))
     return out
 
 
