@@ -60,3 +60,15 @@ def machine() -> str:
                 if line.startswith("model name")), platform.processor())
     mem_gib = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2 ** 30
     return f"{os.cpu_count()} cores ({cpu}), {mem_gib:.0f} GiB, {platform.system()} {platform.release()}; {date.today()}"
+
+
+def report(result: dict, json_path: str | None) -> None:
+    """Prints the figures as JSON and writes them to `json_path` when given."""
+    import json
+    from pathlib import Path
+
+    text = json.dumps(result, indent=1, sort_keys=True, default=str)
+    print(text)
+    if json_path:
+        Path(json_path).parent.mkdir(parents=True, exist_ok=True)
+        Path(json_path).write_text(text + "\n")

@@ -65,7 +65,7 @@ def _episodes(root: Path, config: str, drc: str, limit: int, mode: int, preload:
 
 
 def main() -> int:
-    from _measure import machine
+    from _measure import machine, report
 
     from pcbdata.env.types import MARK_OBSTACLES, MODES, WALKAROUND
     from pcbdata.evaluator.runs import evaluate_set
@@ -110,11 +110,7 @@ def main() -> int:
               "config": args.config, "drc_every_step": per_step, "drc_terminal": terminal,
               "eval_at_1": summary["summary"], "eval_table": summary["table"],
               f"eval_at_{args.k}": at_k["summary"], "eval_table_at_k": at_k["table"]}
-    text = json.dumps(result, indent=1, sort_keys=True, default=str)
-    print(text)
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(text + "\n")
+    report(result, args.json)
     return 0
 
 

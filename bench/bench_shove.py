@@ -111,7 +111,7 @@ def _write_set(root: Path, config: str, limit: int) -> None:
 
 
 def main() -> int:
-    from _measure import machine
+    from _measure import machine, report
 
     from pcbdata.evaluator.runs import evaluate_set
 
@@ -147,11 +147,7 @@ def main() -> int:
             result[name] = figures
             print(name, json.dumps(figures, sort_keys=True), flush=True)
     result["load_after"] = os.getloadavg()
-    text = json.dumps(result, indent=1, sort_keys=True, default=str)
-    print(text)
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(text + "\n")
+    report(result, args.json)
     return 0
 
 

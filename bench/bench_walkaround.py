@@ -12,7 +12,6 @@ two-segment tries alone (what `mark_obstacles` would lay, kept only when clear).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
 import sys
@@ -48,7 +47,7 @@ def _run(boards, **options) -> dict:
 
 
 def main() -> int:
-    from _measure import machine
+    from _measure import machine, report
 
     from tests.env.d2_routes import d2_test_boards
 
@@ -66,11 +65,7 @@ def main() -> int:
               "load_before": load_before, "load_after": os.getloadavg(), "boards": len(boards),
               "connections": connections, "walkaround": walkaround,
               "baseline_direct_tries_only": direct_only}
-    text = json.dumps(result, indent=1, sort_keys=True, default=str)
-    print(text)
-    if args.json:
-        Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.json).write_text(text + "\n")
+    report(result, args.json)
     return 0
 
 

@@ -11,6 +11,7 @@ import numpy as np
 from gymnasium import spaces
 
 from pcbdata.env.types import PHASES, Candidate, Head, StaticBoard
+from pcbdata.ratsnest import open_pairs
 
 MAX_LAYERS = 32
 PAD_SHAPES = ("other", "Circle", "Rect", "Oval", "Trapezoid", "Roundrect", "Chamferedrect",
@@ -135,30 +136,12 @@ def _copper_rows(static: StaticBoard, copper: list[dict]) -> tuple[list, list]:
 
 
 def ratsnest(static: StaticBoard, pad_cluster: list[int]) -> list[tuple]:
-    """Open connections as pcbdata draws them from KiCad's clusters: per net, a minimum
-    spanning tree over its pad clusters, each edge between the closest pad centres."""
+    """Open connections as pcbdata draws them from KiCad's clusters (`pcbdata.ratsnest`)."""
     net_index = {n.name: i for i, n in enumerate(static.nets)}
-    edges = []
-    for net in static.nets:
-        pads = static.pads_of(net.name)
-        pairs = sorted(((static.pads[a].x - static.pads[b].x) ** 2
-                        + (static.pads[a].y - static.pads[b].y) ** 2, a, b)
-                       for ai, a in enumerate(pads) for b in pads[ai + 1:]
-                       if pad_cluster[a] != pad_cluster[b])
-        joined = {pad_cluster[p]: pad_cluster[p] for p in pads}
-        for _, a, b in pairs:
-            ra, rb = _root(joined, pad_cluster[a]), _root(joined, pad_cluster[b])
-            if ra != rb:
-                joined[ra] = rb
-                pa, pb = static.pads[a], static.pads[b]
-                edges.append((1, net_index[net.name], mm(pa.x), mm(pa.y), mm(pb.x), mm(pb.y)))
-    return edges
-
-
-def _root(parent: dict, key: int) -> int:
-    while parent[key] != key:
-        key = parent[key]
-    return key
+    points = [(p.x, p.y) for p in static.pads]
+    pairs = open_pairs(points, [static.pads_of(n.name) for n in static.nets], pad_cluster)
+    return [(1, net_index[static.pads[a].net], mm(static.pads[a].x), mm(static.pads[a].y),
+             mm(static.pads[b].x), mm(static.pads[b].y)) for a, b in pairs]
 
 
 def geometry_part(static: StaticBoard, snap: dict, space: Any) -> tuple[dict, bool]:

@@ -21,27 +21,22 @@ def rl_env_id(config: str, version: int = VERSION) -> str:
 
 def register_rl() -> list[str]:
     """Registers every config's RL-wrapped id (idempotent); returns the ids."""
-    from pcbdata.configs import registry
-
-    ids = []
-    for name in registry():
-        ident = rl_env_id(name)
-        if ident not in gym.registry:
-            gym.register(id=ident, entry_point=RL_ENTRY_POINT, kwargs={"config": name},
-                         disable_env_checker=False)
-        ids.append(ident)
-    return ids
+    return _register(rl_env_id, RL_ENTRY_POINT)
 
 
 def register_all() -> list[str]:
     """Registers every config's id (idempotent); returns the ids."""
+    return _register(env_id, ENTRY_POINT)
+
+
+def _register(id_of, entry_point: str) -> list[str]:
     from pcbdata.configs import registry
 
     ids = []
     for name in registry():
-        ident = env_id(name)
+        ident = id_of(name)
         if ident not in gym.registry:
-            gym.register(id=ident, entry_point=ENTRY_POINT, kwargs={"config": name},
+            gym.register(id=ident, entry_point=entry_point, kwargs={"config": name},
                          disable_env_checker=False)
         ids.append(ident)
     return ids

@@ -21,35 +21,19 @@ from pcbdata.kicad.routing_session import (
     _zones,
 )
 from pcbdata.kicad.scoring import copper_labels
+from pcbdata.ratsnest import open_pairs
 
 
 def ratsnest_edges(pads: list[dict], labels: list[int]) -> list[tuple[int, int, int, int]]:
     """Open connections from KiCad's copper clusters, drawn as the environment's observation
-    draws them: per net a minimum spanning tree over its pad clusters, each edge between the
-    closest pad centres (ties by pad order)."""
+    draws them (`pcbdata.ratsnest`), nets in name order."""
     by_net: dict[str, list[int]] = {}
     for i, pad in enumerate(pads):
         if pad["net"]:
             by_net.setdefault(pad["net"], []).append(i)
-    edges = []
-    for net in sorted(by_net):
-        members = by_net[net]
-        pairs = sorted(((pads[a]["x"] - pads[b]["x"]) ** 2 + (pads[a]["y"] - pads[b]["y"]) ** 2,
-                        a, b) for k, a in enumerate(members) for b in members[k + 1:]
-                       if labels[a] != labels[b])
-        parent = {labels[p]: labels[p] for p in members}
-        for _, a, b in pairs:
-            ra, rb = _root(parent, labels[a]), _root(parent, labels[b])
-            if ra != rb:
-                parent[ra] = rb
-                edges.append((pads[a]["x"], pads[a]["y"], pads[b]["x"], pads[b]["y"]))
-    return edges
-
-
-def _root(parent: dict, key: int) -> int:
-    while parent[key] != key:
-        key = parent[key]
-    return key
+    points = [(pad["x"], pad["y"]) for pad in pads]
+    pairs = open_pairs(points, [by_net[net] for net in sorted(by_net)], labels)
+    return [(pads[a]["x"], pads[a]["y"], pads[b]["x"], pads[b]["y"]) for a, b in pairs]
 
 
 def _records(board) -> dict:
