@@ -150,10 +150,15 @@ def _entry_problem(entry: Path, boards_dir: str) -> tuple[str, str] | None:
     return MISSING_INPUT, f"{what} is a file, not a board folder"
 
 
+#: Files of PCBench's own layout in its boards folder (the index of all boards): not boards.
+#: Kept out of the recipe, whose bytes the released manifests pin.
+LAYOUT_FILES = frozenset({"master_metadata.json"})
+
+
 def scan(source: str | Path, recipe) -> list[SourceBoard]:
-    """Every entry of a PCBench checkout's boards folder, sorted by name. Entries that are
-    not usable folders (dangling or looping links, stray files) are boards with a fate too,
-    so every entry is counted and has a reason."""
+    """Every entry of a PCBench checkout's boards folder, sorted by name, but PCBench's own
+    `LAYOUT_FILES`. Entries that are not usable folders (dangling or looping links, stray
+    files) are boards with a fate too, so every entry is counted and has a reason."""
     src = recipe.source
     root = Path(source) / src.boards_dir
     if not root.is_dir():
@@ -161,6 +166,8 @@ def scan(source: str | Path, recipe) -> list[SourceBoard]:
     excluded = {o.board: o.reason for o in recipe.overrides("exclude")}
     boards = []
     for entry in sorted(root.iterdir(), key=lambda p: p.name):
+        if entry.name in LAYOUT_FILES and entry.is_file() and not entry.is_symlink():
+            continue
         board = SourceBoard(name=entry.name, folder=entry, board_path=entry / src.board_file)
         problem = _entry_problem(entry, src.boards_dir)
         if problem:

@@ -1,5 +1,5 @@
 """The routing environment (SPEC section 6): `import gymnasium as gym, pcbdata.env`, then
-`gym.make("pcbdata/Route-d2-v0", root=SET, split="test")`. One id per config of
+`gym.make("pcbdata/Route-d2-v1", root=SET, split="test")`. One id per config of
 `pcbdata.configs.registry()`; see docs/env.md."""
 from pcbdata.env.registry import env_id, register_all, register_rl, rl_env_id
 from pcbdata.env.types import ACTION_TYPES, ENGINE, MODES, PHASES

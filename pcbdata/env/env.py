@@ -292,8 +292,10 @@ class RoutingEnv(gym.Env):
 
             geometry = board_geometry(self.static, self._snap["copper"])
             if self._router is None:
-                self._router = WalkaroundRouter(geometry, budget_nodes=self.options.router_nodes,
-                                                budget_seconds=self.options.router_seconds)
+                o = self.options
+                self._router = WalkaroundRouter(geometry, budget_nodes=o.router_nodes,
+                                                budget_checks=o.router_checks,
+                                                budget_seconds=o.router_seconds)
             else:
                 self._router.update(geometry)
             self._router_stale = False

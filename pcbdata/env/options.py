@@ -3,10 +3,12 @@ unknown option is an error naming the closest known one)."""
 from __future__ import annotations
 
 import difflib
+import math
 from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from pcbdata.env.errors import EnvOptionError, EnvValueError
+from pcbdata.env.walkaround import BUDGET_CHECKS, BUDGET_NODES
 from pcbdata.evaluator.metrics import Weights
 
 #: Fixed array sizes of the observation (per family); a board larger than these is a clear
@@ -42,8 +44,9 @@ class EnvOptions:
     max_outline_points: int = 0
     max_ratsnest: int = 0
     max_violations: int = 32
-    router_nodes: int = 20000
-    router_seconds: float = 2.0  # safety net only: the node budget keeps results deterministic
+    router_nodes: int = BUDGET_NODES  # walkaround search budget: expansions ...
+    router_checks: int = BUDGET_CHECKS  # ... and link checks (machine-independent counts)
+    router_seconds: float | None = None  # a wall-clock limit too; runs then are not reproducible
     finish_tries: int = 3
     task_timeout: float = 120.0
     engine_env: dict | None = None  # environment of the KiCad worker (e.g. LD_PRELOAD)
@@ -81,6 +84,19 @@ def make_options(**given) -> EnvOptions:
         raise EnvValueError(f"{negative[0]} must be >= 1 (0: the family's default)")
     if options.max_steps < 1 or options.max_candidates < 9:
         raise EnvValueError("max_steps must be >= 1 and max_candidates >= 9 (8 ring slots + 1)")
+    _check_router_budget(options)
     caps = CAPACITIES.get(options.family(), CAPACITIES["d3"])
     unset: dict[str, Any] = {k: v for k, v in caps.items() if getattr(options, k) == 0}
     return replace(options, **unset)
+
+
+def _check_router_budget(options: EnvOptions) -> None:
+    for name in ("router_nodes", "router_checks"):
+        value = getattr(options, name)
+        if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            raise EnvValueError(f"{name} must be a whole number >= 0, not {value!r}")
+    seconds = options.router_seconds
+    if seconds is not None and (isinstance(seconds, bool) or not isinstance(seconds, int | float)
+                                or not math.isfinite(seconds) or seconds <= 0):
+        raise EnvValueError(f"router_seconds must be None or a number of seconds > 0, "
+                            f"not {seconds!r}")

@@ -1,6 +1,6 @@
 """The routing environment on a Ray cluster: environment workers as Ray actors.
 
-    actors = make_actors(4, "pcbdata/Route-d2-v0", root="/shared/d2", split="test")
+    actors = make_actors(4, "pcbdata/Route-d2-v1", root="/shared/d2", split="test")
     episodes = step_episodes(actors, lambda seed: ScriptedAgent(seed=seed),
                              [("board_00000", 0), ("board_00001", 0), ...])
     close_actors(actors)

@@ -1,12 +1,16 @@
-"""One Gymnasium id per config of `pcbdata.configs.registry()`: `pcbdata/Route-<config>-v0`,
-and its RL-wrapped twin `pcbdata/RouteRL-<config>-v0` (`pcbdata.env.rl`). The version changes
-when the environment's dynamics, observation or reward change (or the wrapper's spaces)."""
+"""One Gymnasium id per config of `pcbdata.configs.registry()`: `pcbdata/Route-<config>-v1`,
+and its RL-wrapped twin `pcbdata/RouteRL-<config>-v1` (`pcbdata.env.rl`). The version changes
+when the environment's dynamics, observation or reward change (or the wrapper's spaces).
+
+Versions: 0, the first; 1, `push_n_shove` moves other nets' tracks (it was masked) and the
+walkaround search stops on counted work (expansions, link checks) instead of a 2 s clock.
+Gymnasium answers a request for an older version by naming the current one."""
 from __future__ import annotations
 
 import gymnasium as gym
 
 NAMESPACE = "pcbdata"
-VERSION = 0
+VERSION = 1
 ENTRY_POINT = "pcbdata.env.env:RoutingEnv"
 RL_ENTRY_POINT = "pcbdata.env.rl:make_rl_env"
 

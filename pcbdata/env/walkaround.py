@@ -51,6 +51,9 @@ _EDGE = "edge"
 # of its size, whichever is larger) and doubles it while that window holds no path.
 WINDOW_MIN = 5_000_000
 WINDOW_SHARE = 0.5
+# The search budget (see WalkaroundRouter): expansions and link checks.
+BUDGET_NODES = 20_000
+BUDGET_CHECKS = 400_000
 # Up to this many (segment, obstacle) pairs are screened all at once; more go through the
 # layer's R-tree first.
 _DENSE_PAIRS = 20_000
@@ -229,12 +232,22 @@ def _segments(path) -> np.ndarray:
 
 class WalkaroundRouter:
     """Plans octilinear paths on a snapshot of the board; make a new one (or `update`) after
-    every copper change."""
+    every copper change.
+
+    A search stops after `budget_nodes` expansions or `budget_checks` link checks, counts that
+    do not depend on the machine, so the same board and request give the same answer anywhere.
+    `budget_seconds` (default None: no limit) adds a wall-clock limit, at the price of that.
+    """
 
     def __init__(
-        self, board: BoardGeometry, budget_nodes: int = 20000, budget_seconds: float = 1.0
+        self,
+        board: BoardGeometry,
+        budget_nodes: int = BUDGET_NODES,
+        budget_checks: int = BUDGET_CHECKS,
+        budget_seconds: float | None = None,
     ):
         self.budget_nodes = budget_nodes
+        self.budget_checks = budget_checks
         self.budget_seconds = budget_seconds
         self._cache: dict[CopperItem, _Prepared] = {}
         self.update(board)
@@ -243,7 +256,8 @@ class WalkaroundRouter:
         """A router for another board (e.g. with items taken out or added), with this one's
         budgets and prepared shapes (this router is unchanged)."""
         other = WalkaroundRouter.__new__(WalkaroundRouter)
-        other.budget_nodes, other.budget_seconds = self.budget_nodes, self.budget_seconds
+        other.budget_nodes, other.budget_checks = self.budget_nodes, self.budget_checks
+        other.budget_seconds = self.budget_seconds
         other._cache = dict(self._cache)
         other.update(board)
         return other
@@ -436,16 +450,22 @@ class _Search:
             margin *= 2
 
     def _over_budget(self) -> bool:
+        router = self.router
         return (
-            self.expanded >= self.router.budget_nodes
-            or time.perf_counter() - self.clock > self.router.budget_seconds
+            self.expanded >= router.budget_nodes
+            or self.checks >= router.budget_checks
+            or (
+                router.budget_seconds is not None
+                and time.perf_counter() - self.clock > router.budget_seconds
+            )
         )
 
     def _budget_reason(self) -> str:
-        return (
-            f"no path within the search budget ({self.router.budget_nodes} nodes, "
-            f"{self.router.budget_seconds:g} s)"
-        )
+        router = self.router
+        limits = [f"{router.budget_nodes} nodes", f"{router.budget_checks} link checks"]
+        if router.budget_seconds is not None:
+            limits.append(f"{router.budget_seconds:g} s")
+        return f"no path within the search budget ({', '.join(limits)})"
 
     def _astar(self, nodes: np.ndarray) -> RouteResult | None:
         """A path through `nodes`, a failed result when out of budget, None when there is none."""

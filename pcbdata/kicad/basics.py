@@ -40,16 +40,48 @@ def load_board(path: str):
         raise ValueError(f"{path}: KiCad could not load the board")
     return board
 
-def board_drc_text(board, where: str = "board") -> str:
-    """KiCad's DRC (all track errors) of a loaded board under the project it was loaded with."""
+#: Where DRC reports are written first: KiCad writes one file per DRC, and on tmpfs that costs
+#: about 1 ms less per call than on a disk (the routing environment runs a DRC per step).
+FAST_REPORT_DIR = "/dev/shm"
+#: KiCad's last line of a whole report: a report cut short (a full disk) must not be counted.
+REPORT_END = "** End of Report **"
+
+
+def _report_dirs() -> list[str | None]:
+    """Folders to write DRC reports in, first choice first (None: the default temp folder)."""
+    fast = FAST_REPORT_DIR
+    return [fast, None] if os.path.isdir(fast) and os.access(fast, os.W_OK | os.X_OK) else [None]
+
+
+def _drc_report_in(board, folder: str | None) -> str | None:
+    """The DRC report text of `board` written in a new folder under `folder`; None when KiCad
+    wrote no whole report there."""
     pcbnew = pcbnew_module()
-    with tempfile.TemporaryDirectory(prefix="pcbdata-drc-") as tmp:
+    with tempfile.TemporaryDirectory(prefix="pcbdata-drc-", dir=folder) as tmp:
         report = os.path.join(tmp, "drc.rpt")
         if not pcbnew.WriteDRCReport(board, report, pcbnew.EDA_UNITS_MM, True):
-            raise RuntimeError(f"{where}: KiCad DRC did not produce a report")
+            return None
         # Legacy boards can hold names that are not UTF-8; the report must still parse.
         with open(report, encoding="utf-8", errors="replace") as handle:
-            return handle.read()
+            text = handle.read()
+    return text if is_whole_report(text) else None
+
+
+def is_whole_report(text: str) -> bool:
+    """Whether a DRC report ends as KiCad ends every report it finished writing."""
+    return text.rstrip().endswith(REPORT_END)
+
+
+def board_drc_text(board, where: str = "board") -> str:
+    """KiCad's DRC (all track errors) of a loaded board under the project it was loaded with."""
+    for folder in _report_dirs():
+        try:
+            text = _drc_report_in(board, folder)
+        except OSError:
+            text = None
+        if text is not None:
+            return text
+    raise RuntimeError(f"{where}: KiCad DRC did not produce a whole report")
 
 def drc_text(path: str) -> str:
     """Runs KiCad's DRC on a board file with its own project rules; returns the report text."""

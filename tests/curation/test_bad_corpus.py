@@ -49,6 +49,7 @@ def make_broken_corpus(root: Path) -> Path:
     (boards / "loop").symlink_to("loop", target_is_directory=True)
     (boards / "nowhere").symlink_to(root / "elsewhere", target_is_directory=True)
     (boards / "stray.txt").write_text("not a board\n")
+    (boards / "master_metadata.json").write_text("{}")  # PCBench's own index: not an entry
     (root / "github_meta").mkdir()
     (root / "github_meta" / "github_1.json").write_text(json.dumps({"items": []}))
     (root / "github_meta" / "github_2.json").write_text("{truncated")

@@ -209,6 +209,37 @@ def test_search_budget_is_a_reason_not_a_hang():
     assert_legal(geometry, req, free.path)
 
 
+def _pillar_maze():
+    pillars = [pad("B", x, y, size=0.6) for x in range(4, 17, 2) for y in range(3, 18, 2)]
+    return board(pad("A", 2, 2), pad("A", 18, 18), *pillars), request("A", (2, 2), (18, 18.5))
+
+
+def test_link_check_budget_is_a_reason_too():
+    geometry, req = _pillar_maze()
+    free = WalkaroundRouter(geometry).route(req)
+    assert free.path is not None and free.stats["checks"] > 10
+    tight = WalkaroundRouter(geometry, budget_checks=10).route(req)
+    assert tight.path is None and "10 link checks" in tight.reason
+    assert tight.stats["checks"] >= 10
+
+
+def test_a_slow_machine_gets_the_same_answer(monkeypatch):
+    # The budget counts work, not seconds: a clock that jumps 100 s at every reading (a machine
+    # thousands of times slower) changes nothing unless a wall-clock limit is asked for.
+    import pcbdata.env.walkaround as walkaround
+
+    geometry, req = _pillar_maze()
+    quick = WalkaroundRouter(geometry).route(req)
+    ticks = iter(range(0, 10**9, 100))
+    monkeypatch.setattr(walkaround.time, "perf_counter", lambda: float(next(ticks)))
+    slow = WalkaroundRouter(geometry).route(req)
+    assert quick.path is not None and slow.path == quick.path
+    assert {k: v for k, v in slow.stats.items() if k != "seconds"} == \
+        {k: v for k, v in quick.stats.items() if k != "seconds"}
+    limited = WalkaroundRouter(geometry, budget_seconds=150.0).route(req)
+    assert limited.path is None and "150 s" in limited.reason
+
+
 def test_deterministic_and_independent_of_item_order():
     items = [pad("A", 3, 10), pad("A", 17, 12), wall("B", 10, 4, 10, 16), pad("C", 6, 8),
              wall("D", 13, 6, 15, 14), CopperItem("via", "E", ("F.Cu", "B.Cu"),

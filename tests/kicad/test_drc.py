@@ -64,3 +64,38 @@ def test_parser_rejects_text_that_is_not_a_report():
         assert "not a KiCad DRC report" in str(exc)
     else:
         raise AssertionError("expected ValueError")
+
+
+def drc_with_report_dir(path: str, folder: str) -> dict:
+    """Worker task: `basics.drc` with KiCad's reports written first under `folder`."""
+    from pcbdata.kicad import basics
+
+    basics.FAST_REPORT_DIR = folder
+    return basics.drc(path)
+
+
+def test_reports_go_to_the_fast_folder_or_else_the_default_one(kicad_pool, tmp_path):
+    tight = str(write_board(tmp_path / "tight", _two_pads(1.5)))
+    (tmp_path / "a-file").write_text("not a folder")
+    folders = [tmp_path / "fast", tmp_path / "missing", tmp_path / "a-file"]
+    (tmp_path / "fast").mkdir()
+    jobs = [(tight, str(folder)) for folder in folders]
+    outcomes = sorted(kicad_pool.map("tests.kicad.test_drc:drc_with_report_dir", jobs),
+                      key=lambda o: o.index)
+    assert all(o.ok for o in outcomes), [o.error for o in outcomes]
+    counts = [DrcReport.from_dict(o.value).counts_by_type(include_unconnected=False)
+              for o in outcomes]
+    assert counts == [{"clearance": 1}] * 3
+    assert list((tmp_path / "fast").iterdir()) == []  # each report's folder is removed
+
+
+def test_a_report_cut_short_is_not_taken_for_a_whole_one(kicad_pool, tmp_path):
+    from pcbdata.kicad.basics import REPORT_END, is_whole_report
+
+    tight = str(write_board(tmp_path / "tight", _two_pads(1.5)))
+    outcome = next(iter(kicad_pool.map("pcbdata.kicad.basics:drc_text", [(tight,)])))
+    text = outcome.value
+    assert is_whole_report(text) and text.rstrip().endswith(REPORT_END)
+    cut = text[: text.index("** Found 0 Footprint errors **")]
+    assert not is_whole_report(cut)
+    parse_drc_report(cut)  # the parser alone would take it: the check is what refuses it
