@@ -19,9 +19,10 @@ from tests.conftest import SHARED_PCBENCH
 from tests.helpers import drc_parity, with_straight_tracks, write_board
 
 D2_SAMPLE = range(0, 128, 4)  # 32 of the 128 D2 test boards
-D3_SAMPLE = 6  # the smallest real boards of the snapshot with enough tracks that KiCad
-MIN_TRACKS = 200  # sleeps in its poll (with 6-30 tracks its pool often ends before the first
-# poll: no sleep to cut on any of 6 boards in about one run of three)
+D3_SAMPLE = 6  # the smallest real boards of the snapshot with at least MIN_TRACKS tracks
+# KiCad sleeps only when its thread pool is still busy at its first poll: on boards of 6-30
+# tracks it often is not, and no sleep was cut on any of 6 such boards in one run of three.
+MIN_TRACKS = 200
 
 needs_library = pytest.mark.skipif(
     fastwait.library_path() is None,
