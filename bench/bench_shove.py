@@ -70,9 +70,9 @@ def _outcome(router: dict) -> list[str]:
 
 
 def _router_only(config: str, limit: int) -> dict:
-    from pcbdata.env.geometry import geometry_from_board
-    from pcbdata.env.shove import plan
-    from pcbdata.env.walkaround import RouteRequest, WalkaroundRouter
+    from pcbdata.router.geometry import geometry_from_board
+    from pcbdata.router.shove import plan
+    from pcbdata.router.walkaround import RouteRequest, WalkaroundRouter
     from pcbdata.generators import D2Generator
     from pcbdata.presets import d2_level
     from tests.env import d2_routes

@@ -1,4 +1,4 @@
-"""Benchmark of the walkaround router (`pcbdata.env.walkaround`) on the D2 test boards.
+"""Benchmark of the walkaround router (`pcbdata.router.walkaround`) on the D2 test boards.
 
 Every connection of every net (pad i to pad i+1, through a via next to the pad when the pads
 share no layer) is asked of the router, in net order; found paths become tracks that later nets

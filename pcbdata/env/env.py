@@ -288,7 +288,7 @@ class RoutingEnv(gym.Env):
         router per episode: `update` reuses the shapes of items it has seen)."""
         if self._router is None or self._router_stale:
             from pcbdata.env.geometry_bridge import board_geometry
-            from pcbdata.env.walkaround import WalkaroundRouter
+            from pcbdata.router.walkaround import WalkaroundRouter
 
             geometry = board_geometry(self.static, self._snap["copper"])
             if self._router is None:

@@ -1,4 +1,4 @@
-"""The board as the walkaround router sees it (`pcbdata.env.geometry.BoardGeometry`): pad
+"""The board as the walkaround router sees it (`pcbdata.router.geometry.BoardGeometry`): pad
 polygons per layer, tracks, vias and zones from KiCad, each with its net's clearance."""
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ def _copper_item(record: dict, static: StaticBoard, clearance: dict[str, int], C
 
 def board_geometry(static: StaticBoard, copper: list[dict]):
     """BoardGeometry of the static board plus the current tracks and vias."""
-    from pcbdata.env.geometry import BoardGeometry, CopperItem
+    from pcbdata.router.geometry import BoardGeometry, CopperItem
 
     clearance = {net.name: net.clearance for net in static.nets}
     default = max([n.clearance for n in static.nets] or [0])

@@ -8,8 +8,8 @@ from dataclasses import dataclass, fields, replace
 from typing import Any
 
 from pcbdata.env.errors import EnvOptionError, EnvValueError
-from pcbdata.env.walkaround import BUDGET_CHECKS, BUDGET_NODES
 from pcbdata.evaluator.metrics import Weights
+from pcbdata.router.walkaround import BUDGET_CHECKS, BUDGET_NODES
 
 #: Fixed array sizes of the observation (per family); a board larger than these is a clear
 #: error at reset naming the option to raise.

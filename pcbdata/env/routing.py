@@ -1,9 +1,9 @@
 """The routing operations (make_line, make_via, finish) as edits for the KiCad session.
 
-Geometry is pcbdata's: `walkaround` asks the walkaround router (`pcbdata.env.walkaround`) for a
+Geometry is pcbdata's: `walkaround` asks the walkaround router (`pcbdata.router.walkaround`) for a
 legal octilinear path; `mark_obstacles` lays the straight or two-segment octilinear line as
 asked, violations allowed; `push_n_shove` takes up other nets' tracks in the way and joins
-those nets again around the new path (`pcbdata.env.shove`). KiCad then holds the copper and
+those nets again around the new path (`pcbdata.router.shove`). KiCad then holds the copper and
 judges it. An operation that cannot be done changes nothing and says why.
 """
 from __future__ import annotations
@@ -11,8 +11,6 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
-from pcbdata.env import shove
-from pcbdata.env.geometry import CopperItem
 from pcbdata.env.types import (
     MARK_OBSTACLES,
     MODES,
@@ -22,7 +20,9 @@ from pcbdata.env.types import (
     NetRules,
     StaticBoard,
 )
-from pcbdata.env.walkaround import RouteRequest, mark_obstacles_path
+from pcbdata.router import shove
+from pcbdata.router.geometry import CopperItem
+from pcbdata.router.walkaround import RouteRequest, mark_obstacles_path
 
 
 @dataclass

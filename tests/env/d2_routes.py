@@ -1,6 +1,6 @@
 """Routes D2 boards net by net with the walkaround router, and checks the result exactly.
 
-Shared by tests/env/test_walkaround.py and bench/bench_walkaround.py. Each net's pads are
+Shared by tests/router/test_walkaround.py and bench/bench_walkaround.py. Each net's pads are
 joined in order (pad i to pad i+1): on a copper layer both pads are on, else through a via
 next to the first pad. Every path found becomes tracks of its net, so later nets avoid it.
 The legality check is independent of the router's own shapes: pads are exact circles and
@@ -16,10 +16,10 @@ from dataclasses import dataclass, replace
 import shapely
 
 from pcbdata.board import Board, Pad, Track, Via
-from pcbdata.env.geometry import geometry_from_board
-from pcbdata.env.walkaround import RouteRequest, WalkaroundRouter
 from pcbdata.generators import D2Generator
 from pcbdata.presets import d2_level
+from pcbdata.router.geometry import geometry_from_board
+from pcbdata.router.walkaround import RouteRequest, WalkaroundRouter
 
 LAYERS = ("F.Cu", "B.Cu")
 

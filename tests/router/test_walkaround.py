@@ -1,4 +1,4 @@
-"""The walkaround router (`pcbdata.env.walkaround`): octilinear paths that keep the rules'
+"""The walkaround router (`pcbdata.router.walkaround`): octilinear paths that keep the rules'
 clearance, checked against an independent exact model of the copper (shapely distances), plus
 D2 boards routed net by net (`tests/env/d2_routes.py`)."""
 from __future__ import annotations
@@ -8,7 +8,7 @@ import math
 import pytest
 import shapely
 
-from pcbdata.env.geometry import (
+from pcbdata.router.geometry import (
     BoardGeometry,
     CopperItem,
     arc_polyline,
@@ -17,7 +17,7 @@ from pcbdata.env.geometry import (
     one_bend_paths,
     simplify_path,
 )
-from pcbdata.env.walkaround import SAFETY, RouteRequest, WalkaroundRouter, mark_obstacles_path
+from pcbdata.router.walkaround import SAFETY, RouteRequest, WalkaroundRouter, mark_obstacles_path
 
 MM = 1_000_000
 WIDTH, CLEARANCE, EDGE = 200_000, 200_000, 500_000
@@ -226,7 +226,7 @@ def test_link_check_budget_is_a_reason_too():
 def test_a_slow_machine_gets_the_same_answer(monkeypatch):
     # The budget counts work, not seconds: a clock that jumps 100 s at every reading (a machine
     # thousands of times slower) changes nothing unless a wall-clock limit is asked for.
-    import pcbdata.env.walkaround as walkaround
+    import pcbdata.router.walkaround as walkaround
 
     geometry, req = _pillar_maze()
     quick = WalkaroundRouter(geometry).route(req)

@@ -1,7 +1,7 @@
 """Plain-data copper geometry for the routing environment, and its exact shapes.
 
 The environment reads the board out of KiCad into these records; the walkaround router
-(`pcbdata.env.walkaround`) plans on them without importing KiCad. Units are integer
+(`pcbdata.router.walkaround`) plans on them without importing KiCad. Units are integer
 nanometres and layers are KiCad names ("F.Cu", "B.Cu", ...).
 
 Every item becomes a *core* (a point, polyline or polygon) plus a *radius*: its copper is the

@@ -23,8 +23,8 @@ from dataclasses import dataclass, field, replace
 
 import shapely
 
-from pcbdata.env.geometry import BoardGeometry, CopperItem, Point, copper_core
-from pcbdata.env.walkaround import SAFETY, RouteRequest, WalkaroundRouter
+from pcbdata.router.geometry import BoardGeometry, CopperItem, Point, copper_core
+from pcbdata.router.walkaround import SAFETY, RouteRequest, WalkaroundRouter
 
 
 @dataclass(frozen=True)

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import shapely
 
-from pcbdata.env.geometry import (
+from pcbdata.router.geometry import (
     BoardGeometry,
     CopperItem,
     Point,

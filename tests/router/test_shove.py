@@ -1,0 +1,85 @@
+"""push_n_shove's plan (`pcbdata.router.shove`) alone on plain geometry, checked against the
+independent exact model of `test_walkaround.py`. In the environment and KiCad:
+`tests/env/test_shove_env.py`."""
+from __future__ import annotations
+
+import random
+
+from pcbdata.router.geometry import BoardGeometry
+from pcbdata.router.shove import path_items, plan
+from pcbdata.router.walkaround import WalkaroundRouter
+from tests.router.test_walkaround import CLEARANCE, MM, board, exact_gaps, pad, request, wall
+
+# A narrow board: net A must run straight along y = 9 mm between its pads; net B's pads sit on
+# the top edge and its track dips down across A's way, so walkaround alone cannot pass.
+OUTLINE = ((0, 1_400_000), (20 * MM, 1_400_000), (20 * MM, 10 * MM), (0, 10 * MM))
+B_DIP = (wall("B", 8, 2.5, 8, 9, 0.25), wall("B", 8, 9, 12, 9, 0.25),
+         wall("B", 12, 9, 12, 2.5, 0.25))
+
+
+def _board(*extra) -> BoardGeometry:
+    return board(pad("A", 2, 9), pad("A", 18, 9), pad("B", 8, 2.5), pad("B", 12, 2.5),
+                 *B_DIP, *extra, outline=(OUTLINE,))
+
+
+def _after(geometry: BoardGeometry, done, req) -> BoardGeometry:
+    """The board once the plan is applied."""
+    gone = set(done.removed)
+    items = [i for i in geometry.copper if i not in gone]
+    items += path_items(req.net, req.layer, done.path, req.width, req.clearance)
+    for r in done.reroutes:
+        items += path_items(r.net, req.layer, r.path, r.width, CLEARANCE)
+    return BoardGeometry(geometry.outline, tuple(items), geometry.edge_clearance)
+
+
+def test_walkaround_alone_cannot_pass():
+    assert WalkaroundRouter(_board()).route(request("A", (2, 9), (18, 9))).path is None
+
+
+def test_blocking_tracks_are_taken_up_and_their_net_joined_again_legally():
+    geometry, req = _board(), request("A", (2, 9), (18, 9))
+    done = plan(WalkaroundRouter(geometry), req)
+    assert done.path == ((2 * MM, 9 * MM), (18 * MM, 9 * MM)), done.reason
+    assert set(done.removed) == set(B_DIP) and done.moved_nets == ("B",)
+    assert [(r.net, r.path[0], r.path[-1]) for r in done.reroutes] == \
+        [("B", (8 * MM, 2_500_000), (12 * MM, 2_500_000))]
+    final = _after(geometry, done, req)
+    assert min(exact_gaps(final, req, done.path)) >= 0
+    for r in done.reroutes:
+        own = request("B", (8, 2.5), (12, 2.5), width=r.width)
+        assert min(exact_gaps(final, own, r.path)) >= 0
+    assert done.stats["method"] == "shove" and done.stats["moved_tracks"] == 3
+
+
+def test_the_plan_does_not_depend_on_item_order():
+    geometry, req = _board(), request("A", (2, 9), (18, 9))
+    items = list(geometry.copper)
+    random.Random(1).shuffle(items)
+    shuffled = BoardGeometry(geometry.outline, tuple(items), geometry.edge_clearance)
+    assert plan(WalkaroundRouter(shuffled), req) == plan(WalkaroundRouter(geometry), req)
+
+
+def test_no_shove_when_walkaround_finds_a_path():
+    geometry = board(pad("A", 2, 9), pad("A", 18, 9), wall("B", 8, 2, 8, 5))
+    done = plan(WalkaroundRouter(geometry), request("A", (2, 9), (18, 9)))
+    assert done.path is not None and done.removed == () and done.reroutes == ()
+    assert done.stats["shove"] == "not_needed"
+
+
+def test_pads_are_not_moved():
+    geometry = board(pad("A", 2, 9), pad("A", 18, 9), pad("C", 10, 6, size=7.9),
+                     outline=(OUTLINE,))
+    done = plan(WalkaroundRouter(geometry), request("A", (2, 9), (18, 9)))
+    assert done.path is None and "no other net's track to move" in done.reason
+
+
+def test_a_net_that_cannot_be_joined_again_changes_nothing():
+    # B's pads below A's way: once A runs along y = 9, B's two sides are cut apart.
+    # A's pads reach the side edges, so nothing passes around A's ends either.
+    geometry = board(pad("A", 1, 9), pad("A", 19, 9), pad("B", 10, 9.9, size=0.2),
+                     pad("B", 10, 3, size=0.6), wall("B", 10, 3, 10, 9.9, 0.25),
+                     outline=(((0, 2 * MM), (20 * MM, 2 * MM), (20 * MM, 10.6 * MM),
+                               (0, 10.6 * MM)),))
+    done = plan(WalkaroundRouter(geometry), request("A", (1, 9), (19, 9)))
+    assert done.path is None and "'B'" in done.reason
+    assert done.removed == () and done.reroutes == ()
