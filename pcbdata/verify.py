@@ -70,7 +70,7 @@ def _check_config(config_dir: Path, config_name: str, config: dict, shards: set[
         if split.get("count", len(split["boards"])) != len(split["boards"]):
             problems.append(f"{where}: count says {split['count']} boards but the manifest "
                             f"lists {len(split['boards'])}")
-        problems += _check_split(config_dir / split_name, where, split["boards"])
+        problems += check_split(config_dir / split_name, where, split["boards"])
     if config_dir.is_dir():
         for entry in sorted(config_dir.iterdir()):
             rel = f"{config_name}/{entry.name}"
@@ -88,7 +88,7 @@ def _check_config(config_dir: Path, config_name: str, config: dict, shards: set[
     return problems
 
 
-def _check_split(split_dir: Path, where: str, boards: dict) -> list[str]:
+def check_split(split_dir: Path, where: str, boards: dict) -> list[str]:
     if not split_dir.is_dir():
         if boards:  # an empty split (e.g. a tier a small corpus leaves empty) has no folder
             return [f"{where}: split folder missing ({len(boards)} boards)"]

@@ -22,6 +22,7 @@ from tests.evaluator.boards import (
     write_board,
     write_instance,
 )
+from tests.helpers import seal_set
 
 
 def cut_in_pad_layers(text: str) -> str:
@@ -64,7 +65,7 @@ def test_whole_boards_pass_and_cut_ones_do_not():
 def one_board_set(tmp_path):
     root = tmp_path / "set"
     write_instance(base_board(), root / "d2" / "test" / "b0")
-    return root
+    return seal_set(root)
 
 
 def eval_args(root: Path, runs: Path, out: Path, timeout: float) -> list[str]:

@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from pcbdata.fsutil import folder_lock
+from tests.helpers import seal_set
 from tests.processes import marked_env, new_marker, wait_for
 
 REPO = Path(__file__).resolve().parents[1]
@@ -152,7 +153,7 @@ def eval_inputs(tmp_path):
         write_instance(base_board(), root / "d2" / "test" / board_id)
         write_board(routed(base_board(), [ROUTE_A]), runs / board_id / "0.kicad_pcb")
         write_board(routed(base_board(), [ROUTE_A, ROUTE_B]), runs / board_id / "1.kicad_pcb")
-    return root, runs
+    return seal_set(root), runs
 
 
 def test_an_eval_waits_for_its_report_folder(eval_inputs, tmp_path):

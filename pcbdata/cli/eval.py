@@ -40,6 +40,12 @@ def register(parser) -> None:
     parser.add_argument("--lw", type=checks.weight, default=0.002,
                         help="potential weight per mm of WL")
     parser.add_argument("--lv", type=checks.weight, default=0.1, help="potential weight per via")
+    parser.add_argument("--no-cache", action="store_true",
+                        help="score every rollout again, ignoring REPORT/scores.jsonl (the way to "
+                             "trust a REPORT folder you did not write)")
+    parser.add_argument("--allow-unverified", action="store_true",
+                        help="score boards that do not match the set's manifest (refused "
+                             "otherwise); the report and the table say so")
     _executor_options.add(parser)
     parser.set_defaults(run=run)
 
@@ -52,6 +58,7 @@ def run(args) -> int:
                           k=args.k, reference=args.reference, workers=args.workers,
                           weights=Weights(lw=args.lw, lv=args.lv), name=args.name,
                           task_timeout=args.timeout, limit=args.limit,
-                          executor=_executor_options.executor(args))
+                          executor=_executor_options.executor(args),
+                          use_cache=not args.no_cache, allow_unverified=args.allow_unverified)
     print(result["table"], end="")
     return 0

@@ -11,14 +11,17 @@ from pathlib import Path
 
 from pcbdata.errors import UserError
 from pcbdata.evaluator.integrity import rollout_problems
-from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, rollout_metrics
+from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, raw_counts, rollout_metrics
 from pcbdata.executors import Executor, TaskPool, resolve
 from pcbdata.hashing import sha256_file
 from pcbdata.sexpr_text import cut_problem
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
 #: 2.0.0: copper transplanted onto the instance's board; evaluation and strict counts.
-EVALUATOR_VERSION = "2.0.0"
+#: 3.0.0: Pot., f and Phi by the strict count; WL geometric (arcs from their three points);
+#: copper off the board or on non-copper layers, and oversized files, make a rollout invalid;
+#: a board with no valid rollout counts Pot. 0; reports name the set they scored.
+EVALUATOR_VERSION = "3.0.0"
 MEASURE = "pcbdata.kicad.scoring:measure"
 SCORE = "pcbdata.evaluator.core:score_task"
 INSTANCE_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
@@ -46,6 +49,29 @@ def instance_hash(directory: str | Path) -> str:
     return digest.hexdigest()
 
 
+#: A submitted board may be this many times the size of the largest instance board scored with
+#: it (and at least `MIN_SIZE_LIMIT`): copper for every net fits many times over, and KiCad is
+#: never handed a huge file.
+SIZE_FACTOR = 10
+MIN_SIZE_LIMIT = 1 << 20
+
+
+def size_limit(directories: Iterable[Path]) -> int:
+    """The largest submitted file accepted with these instances (bytes)."""
+    largest = max((Path(d) / "board.kicad_pcb").stat().st_size for d in directories)
+    return max(MIN_SIZE_LIMIT, SIZE_FACTOR * largest)
+
+
+def oversize(path: str | Path, max_bytes: int) -> str | None:
+    """Why a submitted file is refused unread for its size (above `max_bytes`), or None."""
+    path = Path(path)
+    size = path.stat().st_size if path.is_file() else 0
+    if size <= max_bytes:
+        return None
+    return (f"file of {size} bytes is above the limit of {max_bytes} bytes ({SIZE_FACTOR} times "
+            f"the largest instance board, at least {MIN_SIZE_LIMIT}), not loaded")
+
+
 def precheck(path: str | Path) -> str | None:
     """A reason why `path` cannot be a `.kicad_pcb` file, found without KiCad; None if it may be."""
     path = Path(path)
@@ -62,16 +88,28 @@ def precheck(path: str | Path) -> str | None:
     return cut_problem(path.read_bytes())  # KiCad's parser can hang on a cut file
 
 
-#: The metric fields of a record; a rollout that is not scored has them empty (CP 0, Rout. 0).
-SCORE_FIELDS = ("cp", "cp_strict", "pot", "pot_strict", "rout", "drv", "drv_strict",
-                "unconnected", "wl", "via", "penalty", "penalty_strict", "phi", "phi_strict",
-                "phi_bare", "phi_bare_strict", "net_count", "drv_by_type", "drv_strict_by_type")
+#: The metric fields of a record (`metrics.rollout_metrics`); a rollout that is not scored has
+#: them empty (CP 0, Rout. 0).
+SCORE_FIELDS = ("cp", "cp_strict", "pot", "pot_evaluation", "rout", "drv", "drv_strict",
+                "unconnected", "wl", "via", "penalty", "penalty_evaluation", "phi",
+                "phi_evaluation", "phi_bare", "phi_bare_evaluation", "net_count", "drv_by_type",
+                "drv_strict_by_type")
+#: Why a rollout is not scored: its file is not a board KiCad loads, or it is a changed board.
+FAILED_STATUSES = ("parse_fail", "invalid")
 
 
 def failed_record(status: str, reason: str) -> dict:
     record: dict = {field: None for field in SCORE_FIELDS}
     record.update(cp=0, cp_strict=0, rout=0.0, drv_by_type={}, drv_strict_by_type={})
-    return {"status": status, "reason": reason, **record}
+    return {"status": status, "reason": reason, "raw": None, **record}
+
+
+def complete(stored: dict, weights: Weights = DEFAULT_WEIGHTS) -> dict:
+    """A full record from its stored part (status, reason, raw counts, ...): every derived
+    figure is computed again from the raw counts, never read."""
+    if stored["status"] != "ok":
+        return {**stored, **failed_record(stored["status"], stored["reason"])}
+    return {**stored, **rollout_metrics(stored["raw"], weights)}
 
 
 def judge(bare: dict, routed: dict | None, error: str = "",
@@ -85,7 +123,7 @@ def judge(bare: dict, routed: dict | None, error: str = "",
     problems = rollout_problems(bare, routed)
     if problems:
         return failed_record("invalid", "; ".join(problems))
-    return {"status": "ok", "reason": "", **rollout_metrics(bare, routed, weights)}
+    return complete({"status": "ok", "reason": "", "raw": raw_counts(bare, routed)}, weights)
 
 
 def score_task(routed: str, directory: str, bare: dict, weights: Weights) -> dict:
@@ -149,11 +187,14 @@ class Evaluator:
         hashes = {d: instance_hash(d) for d in dict.fromkeys(d for d, _ in pairs)}  # once each
         bare = self._measure_bare(hashes)
         keys = [hashes[d] for d, _ in pairs]
+        max_bytes = size_limit(hashes)
         jobs, job_index = [], []
         for index, (directory, routed) in enumerate(pairs):
-            reason = precheck(routed)
+            reason, status = oversize(routed, max_bytes), "invalid"
+            if reason is None:
+                reason, status = precheck(routed), "parse_fail"
             if reason is not None:
-                yield index, failed_record("parse_fail", reason)
+                yield index, failed_record(status, reason)
                 continue
             jobs.append((str(routed), str(directory), bare[keys[index]], self.weights))
             job_index.append(index)
@@ -166,9 +207,10 @@ class Evaluator:
 
     def score(self, instance: str | Path, routed: str | Path) -> dict:
         """The record of one routed board: status (ok / invalid / parse_fail), reason, and
-        `SCORE_FIELDS`: cp, pot, drv, penalty, phi, phi_bare, drv_by_type under the evaluation
-        count, the same with `_strict` under the strict count (drv_strict is DRV+, cp_strict
-        CP+), rout, unconnected, wl, via, net_count."""
+        `raw` (the counts every figure derives from) and `SCORE_FIELDS`: cp, drv, drv_by_type
+        under the evaluation count and cp_strict (CP+), drv_strict (DRV+), drv_strict_by_type
+        under the strict count; pot, penalty, phi, phi_bare under the strict count with
+        `_evaluation` twins; rout, unconnected, wl, via, net_count."""
         return next(iter(self.score_many([(Path(instance), Path(routed))])))[1]
 
 

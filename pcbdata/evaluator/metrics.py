@@ -14,9 +14,10 @@ from collections import Counter
 from dataclasses import asdict, dataclass
 
 #: The two ways of counting DRC violations (SPEC 4). "evaluation": error-severity violations
-#: (as the project resolves them) and every unconnected item; the published tables, DRV, CP, f,
-#: Phi and Pot. "strict": the same plus the warnings of `STRICT_WARNINGS`; the report's DRV+ and
-#: CP+, and the routing environment's default training penalty.
+#: (as the project resolves them) and every unconnected item; DRV and CP (the published
+#: Reference rows keep CP 1.00, DRV 0.00 only with it). "strict": the same plus the warnings of
+#: `STRICT_WARNINGS`; f, Phi and Pot. (the published Reference Pot. is reproduced only with
+#: it), the report's DRV+ and CP+, and the routing environment's default reward.
 COUNTINGS = ("evaluation", "strict")
 #: Warning types the strict count adds.
 STRICT_WARNINGS = frozenset({"via_dangling", "track_dangling", "net_conflict"})
@@ -81,10 +82,15 @@ def violations_per_net(counted: list[dict]) -> dict[str, int]:
 
 
 def drc_penalty(counted: list[dict], weights: Weights = DEFAULT_WEIGHTS) -> float:
-    """f(s) = 3 ln(1 + X/2) + sum_i ln(1 + x_i/2); X = number of buckets (nets) with x_i > 0.
-    Summed exactly (fsum over the nets in sorted order): the order in which KiCad reported the
-    violations cannot change the last digit."""
-    per_net = violations_per_net(counted)
+    """f(s) = 3 ln(1 + X/2) + sum_i ln(1 + x_i/2); X = number of buckets (nets) with x_i > 0."""
+    return penalty_of(violations_per_net(counted), weights)
+
+
+def penalty_of(per_net: dict[str, int], weights: Weights = DEFAULT_WEIGHTS) -> float:
+    """f from the counted violations per net (`violations_per_net`). Summed exactly (fsum over
+    the nets in sorted order): the order in which KiCad reported the violations cannot change
+    the last digit."""
+    per_net = dict(sorted(per_net.items()))
     hit = sum(1 for x in per_net.values() if x > 0)
     return math.fsum([weights.net_weight * math.log1p(hit / 2),
                       *(math.log1p(x / 2) for x in per_net.values())])
@@ -109,7 +115,7 @@ def potential(net_count: int, unconnected: int, penalty: float, wl_mm: float, vi
 
 
 def board_state(measurement: dict, weights: Weights = DEFAULT_WEIGHTS,
-                counting: str = "evaluation") -> dict:
+                counting: str = "strict") -> dict:
     """DRV, U, f, WL, Via and Phi of one measured board under `counting` (see `COUNTINGS`).
     Needs only `violations`, `wl_mm`, `vias` and `net_count` of the measurement."""
     counted = counted_violations(measurement["violations"], counting)
@@ -128,32 +134,67 @@ def board_state(measurement: dict, weights: Weights = DEFAULT_WEIGHTS,
     }
 
 
-def rollout_metrics(bare: dict, routed: dict, weights: Weights = DEFAULT_WEIGHTS) -> dict:
-    """The scores of one routed board against its bare instance (both measurements): CP, Pot.,
-    DRV, f, Phi under the evaluation count, and the same under the strict count as
-    `cp_strict`, `pot_strict`, `drv_strict` (DRV+), `penalty_strict`, `phi_strict`."""
-    rout = routability(bare["clusters"], routed["clusters"])
-    record: dict = {}
+def board_counts(measurement: dict) -> dict:
+    """The raw counts of one measured board that every figure derives from: U, WL, Via, N and,
+    per counting, the counted violations per net (f) and per type (DRV)."""
+    violations = measurement["violations"]
+    counts: dict = {"unconnected": unconnected_count(violations), "wl": measurement["wl_mm"],
+                    "via": measurement["vias"], "net_count": measurement["net_count"]}
+    for counting in COUNTINGS:
+        counted = counted_violations(violations, counting)
+        counts[counting] = {"per_net": violations_per_net(counted),
+                            "by_type": dict(sorted(Counter(v["type"] for v in counted).items()))}
+    return counts
+
+
+def raw_counts(bare: dict, routed: dict) -> dict:
+    """What a rollout's scores are computed from (`rollout_metrics`): the raw counts of the
+    routed board and of its bare instance, and routability's numerator and denominator. The
+    evaluator caches these, never the derived figures."""
+    need = sum(g0 - 1 for g0 in bare["clusters"].values() if g0 > 1)
+    done = sum(g0 - routed["clusters"].get(net, g0)
+               for net, g0 in bare["clusters"].items() if g0 > 1)
+    return {"routed": board_counts(routed), "bare": board_counts(bare),
+            "rout_done": done, "rout_need": need}
+
+
+def _phi(counts: dict, counting: str, weights: Weights) -> tuple[float, float]:
+    """(f, Phi) of a board's raw counts under `counting`."""
+    penalty = penalty_of(counts[counting]["per_net"], weights)
+    phi = potential(counts["net_count"], counts["unconnected"], penalty, counts["wl"],
+                    counts["via"], weights)
+    return penalty, phi
+
+
+#: The suffix of each counting's Pot., f and Phi in a record: Pot. is the strict count's.
+POT_SUFFIX = {"strict": "", "evaluation": "_evaluation"}
+
+
+def rollout_metrics(raw: dict, weights: Weights = DEFAULT_WEIGHTS) -> dict:
+    """The scores of one rollout from its raw counts (`raw_counts`). CP and DRV use the
+    evaluation count, CP+ (`cp_strict`) and DRV+ (`drv_strict`) the strict one; f (`penalty`),
+    Phi (`phi`, `phi_bare`) and Pot. (`pot`) the strict count, with the evaluation count's
+    reading beside them as diagnostics (`pot_evaluation`, `penalty_evaluation`, ...)."""
+    routed, bare = raw["routed"], raw["bare"]
+    rout = raw["rout_done"] / raw["rout_need"] if raw["rout_need"] else 1.0
+    record: dict = {"rout": rout, "unconnected": routed["unconnected"], "wl": routed["wl"],
+                    "via": routed["via"], "net_count": routed["net_count"]}
     for counting, suffix in (("evaluation", ""), ("strict", "_strict")):
-        state = board_state(routed, weights, counting)
-        phi_bare = board_state(bare, weights, counting)["phi"]
-        record.update({
-            f"cp{suffix}": int(rout == 1.0 and state["drv"] == 0),
-            f"pot{suffix}": state["phi"] - phi_bare,
-            f"drv{suffix}": state["drv"],
-            f"penalty{suffix}": state["penalty"],
-            f"phi{suffix}": state["phi"],
-            f"phi_bare{suffix}": phi_bare,
-            f"drv{suffix}_by_type": state["drv_by_type"],
-        })
-    record.update(rout=rout, unconnected=state["unconnected"], wl=state["wl"], via=state["via"],
-                  net_count=state["net_count"])
+        by_type = routed[counting]["by_type"]
+        drv = sum(by_type.values())
+        record.update({f"cp{suffix}": int(rout == 1.0 and drv == 0), f"drv{suffix}": drv,
+                       f"drv{suffix}_by_type": dict(by_type)})
+    for counting, suffix in POT_SUFFIX.items():
+        penalty, phi = _phi(routed, counting, weights)
+        phi_bare = _phi(bare, counting, weights)[1]
+        record.update({f"pot{suffix}": phi - phi_bare, f"penalty{suffix}": penalty,
+                       f"phi{suffix}": phi, f"phi_bare{suffix}": phi_bare})
     return dict(sorted(record.items()))
 
 
 def selection_key(record: dict) -> tuple:
-    """Sort key of the @k protocol: the smallest key wins. Largest Pot., then higher routability,
-    fewer DRV, shorter WL, fewer vias, lower rollout index."""
+    """Sort key of the @k protocol: the smallest key wins. Largest Pot. (strict count), then
+    higher routability, fewer DRV, shorter WL, fewer vias, lower rollout index."""
     return (-record["pot"], -record["rout"], record["drv"], record["wl"], record["via"],
             record["index"])
 

@@ -18,8 +18,9 @@ import sys
 from pathlib import Path
 
 from pcbdata.errors import UserError
-from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, instance_hash
+from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, complete, instance_hash
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, pick_best
+from pcbdata.evaluator.setcheck import mark, refuse_unverified, set_identity
 from pcbdata.executors import Executor
 from pcbdata.fsutil import folder_lock, write_atomic
 from pcbdata.hashing import sha256_file
@@ -28,15 +29,21 @@ from pcbdata.kicad.pool import is_limit_error, memory_limit_from_env
 TIME_KEYS = ("time_s", "time", "seconds", "wall_time_s")
 ROLLOUT_COLUMNS = ["board_id", "rollout", "index", "status", "reason", "cp", "pot", "rout", "drv",
                    "unconnected", "wl", "via", "penalty", "phi", "phi_bare", "net_count", "time",
-                   "drv_by_type", "cp_strict", "drv_strict", "pot_strict", "penalty_strict",
-                   "phi_strict", "phi_bare_strict", "drv_strict_by_type", "sha256"]
-#: What a board row takes from its kept rollout (the @k choice uses the evaluation count).
+                   "drv_by_type", "cp_strict", "drv_strict", "drv_strict_by_type",
+                   "pot_evaluation", "penalty_evaluation", "phi_evaluation",
+                   "phi_bare_evaluation", "sha256"]
+#: What a board row takes from its kept rollout (the @k choice picks by Pot., strict count).
 BEST_FIELDS = ("cp", "pot", "rout", "drv", "unconnected", "wl", "via", "cp_strict", "drv_strict",
-               "pot_strict")
+               "pot_evaluation")
+#: A board with no scored rollout is the bare board in the set's figures (SPEC 4): nothing
+#: routed, nothing gained. WL, Via and DRV have no value for it.
+NO_SCORED_ROLLOUT = {"cp": 0, "cp_strict": 0, "rout": 0.0, "pot": 0.0, "pot_evaluation": 0.0}
 BOARD_COLUMNS = ["board_id", "n_rollouts", "n_ok", "n_invalid", "n_parse_fail", "parse_fail",
                  "best_rollout", "cp", "pot", "rout", "drv", "unconnected", "wl", "via", "time",
-                 "cp_strict", "drv_strict", "pot_strict"]
+                 "cp_strict", "drv_strict", "pot_evaluation"]
 CACHE_NAME = "scores.jsonl"
+#: What a cache line keeps of a record: every figure is derived again from `raw` on reading.
+STORED_FIELDS = ("status", "reason", "raw", "sha256", "score_seconds")
 
 
 def natural_key(name: str) -> list:
@@ -150,16 +157,36 @@ def limit_cache_key(key: str, limits: tuple[float, int]) -> str:
     return hashlib.sha256(text.encode()).hexdigest()
 
 
-def load_cache(path: Path) -> dict[str, dict]:
+def record_digest(key: str, stored: dict) -> str:
+    """The digest a cache line carries: an edited record no longer matches it."""
+    text = json.dumps([EVALUATOR_VERSION, key, stored], sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def cache_line(key: str, record: dict) -> str:
+    stored = {field: record.get(field) for field in STORED_FIELDS}
+    return json.dumps({"key": key, "record": stored, "digest": record_digest(key, stored)},
+                      sort_keys=True) + "\n"
+
+
+def load_cache(path: Path) -> tuple[dict[str, dict], int]:
+    """(stored records by key, number of lines whose record does not match its digest). Those
+    are left out, so their rollouts are scored again; a line cut by an interrupted run too."""
     cache: dict[str, dict] = {}
+    tampered = 0
     if path.is_file():
         for line in path.read_text(encoding="utf-8").splitlines():
             try:
                 entry = json.loads(line)
-                cache[entry["key"]] = entry["record"]
+                key, stored, digest = entry["key"], entry["record"], entry["digest"]
+                _ = stored["status"], stored["reason"], stored["raw"]
             except (ValueError, KeyError, TypeError):
-                continue  # a line cut by an interrupted run
-    return cache
+                continue
+            if digest != record_digest(key, stored):
+                tampered += 1
+                continue
+            cache[key] = stored
+    return cache, tampered
 
 
 def _mean(values: list) -> float | None:
@@ -178,32 +205,33 @@ def board_row(board_id: str, records: list[dict]) -> dict:
            "n_parse_fail": n_parse, "parse_fail": int(n_parse == len(records)),
            "time": _mean([r.get("time") for r in records])}
     if best is None:
-        row.update({key: None for key in BEST_FIELDS}, best_rollout=None, cp=0, cp_strict=0,
-                   rout=0.0)
+        row.update({key: None for key in BEST_FIELDS}, best_rollout=None, **NO_SCORED_ROLLOUT)
     else:
         row.update({key: best.get(key) for key in BEST_FIELDS}, best_rollout=best["rollout"])
     return row
 
 
 def summarize(board_rows: list[dict], rollouts: list[dict], k: int) -> dict:
-    """The per-set summary. CP and Rout. average over all boards (a board with no scored
-    rollout counts 0); Pot., DRV, WL and Via over boards with a scored rollout; Time over all
-    rollouts that report one; parse_fail over boards, parse_fail_at1 and invalid over rollouts."""
+    """The per-set summary. CP, Rout. and Pot. average over all boards (a board with no scored
+    rollout counts as its bare board: `NO_SCORED_ROLLOUT`); DRV, WL and Via over boards with a
+    scored rollout (`n_boards_scored`); Time over the rollouts that report one (`n_timed`);
+    parse_fail over boards, parse_fail_at1 and invalid over rollouts."""
     n = len(board_rows)
     n_roll = len(rollouts)
     return {
         "n_boards": n,
         "k": k,
         "cp": _mean([r["cp"] for r in board_rows]),
-        "cp_strict": _mean([r.get("cp_strict", 0) for r in board_rows]),
+        "cp_strict": _mean([r["cp_strict"] for r in board_rows]),
         "pot": _mean([r["pot"] for r in board_rows]),
-        "pot_strict": _mean([r.get("pot_strict") for r in board_rows]),
+        "pot_evaluation": _mean([r["pot_evaluation"] for r in board_rows]),
         "rout": _mean([r["rout"] for r in board_rows]),
         "drv": _mean([r["drv"] for r in board_rows]),
         "drv_strict": _mean([r.get("drv_strict") for r in board_rows]),
         "wl": _mean([r["wl"] for r in board_rows]),
         "via": _mean([r["via"] for r in board_rows]),
         "time": _mean([r.get("time") for r in rollouts]),
+        "n_timed": sum(r.get("time") is not None for r in rollouts),
         "parse_fail": (sum(r["parse_fail"] for r in board_rows) / n) if n else None,
         "parse_fail_at1": ((sum(r["status"] == "parse_fail" for r in rollouts) / n_roll)
                            if n_roll else None),
@@ -225,13 +253,15 @@ def _fmt(value, digits: int = 2) -> str:
 
 def markdown_table(summaries: list[tuple[str, dict]]) -> str:
     """The results table in the benchmark paper's shape (one row per method), then the strict
-    count's diagnostic columns CP+ and DRV+ (SPEC 4) and the failure rates."""
+    count's diagnostic columns CP+ and DRV+ (SPEC 4) and the failure rates. A method scored on
+    an unverified set, or one that differs from its release, says so in its cell."""
     lines = ["| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | "
              "CP+ (%) | DRV+ | Parse-fail (%) | Parse-fail @1 (%) | Invalid (%) |",
              "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
     for name, s in summaries:
         pct = lambda v: "-" if v is None else f"{100 * v:.1f}"  # noqa: E731
-        lines.append(f"| {name} | {pct(s['cp'])} | {_fmt(s['pot'])} | {_fmt(s['rout'], 3)} | "
+        lines.append(f"| {name}{mark(s.get('set'))} | {pct(s['cp'])} | {_fmt(s['pot'])} | "
+                     f"{_fmt(s['rout'], 3)} | "
                      f"{_fmt(s['drv'])} | {_fmt(s['wl'], 1)} | {_fmt(s['via'])} | "
                      f"{_fmt(s['time'])} | "
                      f"{pct(s.get('cp_strict'))} | {_fmt(s.get('drv_strict'))} | "
@@ -275,6 +305,14 @@ def _check_arguments(k, workers, weights: Weights, task_timeout, limit, name) ->
 _SHOWN_WARNINGS = 10
 
 
+def quoted(name: str) -> str:
+    """A name as one line can show it: in JSON quotes when it holds a line break, another
+    control character or the separator `;` (a file may be named anything)."""
+    if name.isprintable() and ";" not in name:
+        return name
+    return json.dumps(name)
+
+
 def _print_warnings(warnings: dict, runs: Path) -> None:
     """One stderr line per kind of RUNS entry that is not scored (all of them are recorded
     in summary.json under `runs_warnings`)."""
@@ -282,12 +320,13 @@ def _print_warnings(warnings: dict, runs: Path) -> None:
             "not_a_folder": "board entries that are not folders, scored as missing",
             "not_a_rollout": "files that are not rollouts (.kicad_pcb, .json), ignored",
             "beyond_k": "rollouts beyond the first k, not scored",
-            "invalid_times": "rollout times not valid, not counted"}
+            "invalid_times": "rollout times not valid, not counted",
+            "untimed": "rollouts without a time while others have one: Time averages the rest"}
     for kind, items in warnings.items():
         if not items:
             continue
-        names = [f"{i['board_id']}/{i['rollout']}: {i['reason']}" if isinstance(i, dict) else i
-                 for i in items]
+        names = [f"{quoted(i['board_id'] + '/' + i['rollout'])}: {quoted(i['reason'])}"
+                 if isinstance(i, dict) else quoted(i) for i in items]
         shown = "; ".join(names[:_SHOWN_WARNINGS])
         more = f"; ... {len(names) - _SHOWN_WARNINGS} more" if len(names) > _SHOWN_WARNINGS else ""
         print(f"pcbdata eval: warning: {runs}: {what[kind]} ({len(names)}): {shown}{more}; "
@@ -301,13 +340,17 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                  runs: str | Path | None = None, k: int = 5, reference: bool = False,
                  workers: int = 1, weights: Weights = DEFAULT_WEIGHTS, name: str | None = None,
                  task_timeout: float = 300.0, progress: bool = True,
-                 limit: int | None = None, executor: Executor | str | None = None) -> dict:
+                 limit: int | None = None, executor: Executor | str | None = None,
+                 use_cache: bool = True, allow_unverified: bool = False) -> dict:
     """Scores a submission (or the reference boards) on one config/split; writes REPORT files
     and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl` (time and
-    memory limits hit too, under the same limits). `limit` scores only the first N boards of
-    the split (in board-id order). A second call on the same `out` waits for the first.
-    The boards are scored on `executor` (default: this machine's workers; `pcbdata.executors`;
-    `workers` is the local executor's), with the same report whichever scores them."""
+    memory limits hit too, under the same limits); a cached record that does not match its
+    digest is scored again, and `use_cache=False` scores everything again (the way to trust a
+    REPORT folder someone else wrote). `limit` scores only the first N boards of the split (in
+    board-id order). A second call on the same `out` waits for the first. The boards are
+    scored on `executor` (default: this machine's workers; `pcbdata.executors`; `workers` is
+    the local executor's), with the same report whichever scores them. The scored split's
+    boards must match the set's manifest unless `allow_unverified` (the report says so)."""
     root, out = Path(root), Path(out)
     _check_arguments(k, workers, weights, task_timeout, limit, name)
     if reference == (runs is not None):
@@ -315,17 +358,19 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
     runs_dir = None if runs is None else Path(runs)
     if runs_dir is not None and not runs_dir.is_dir():
         raise UserError(f"{runs}: no such RUNS directory")
-    if out.exists() and not out.is_dir():
-        raise UserError(f"--out {out}: exists and is not a folder (REPORT is a folder)")
+    _check_out(out, root, runs_dir)
     every = list_instances(root, config, split)
+    identity = set_identity(root, config, split)
+    if not allow_unverified:
+        refuse_unverified(identity, root)
     instances = every[:limit] if limit is not None else every
     plan = _plan(instances, runs_dir, k)
     warnings = {} if runs_dir is None else runs_warnings(
         runs_dir, [b for b, _ in every], [b for b, _ in instances], k)
     out.mkdir(parents=True, exist_ok=True)
     with folder_lock(out, "written"):  # a second eval into REPORT waits: reports never mix
-        records = _score_plan(plan, instances, out, weights, workers, task_timeout, progress,
-                              executor)
+        records, cache_stats = _score_plan(plan, instances, out, weights, workers, task_timeout,
+                                           progress, executor, use_cache)
         rollout_rows = _rollout_rows(plan, records, reference, warnings)
         if warnings and progress and runs_dir is not None:
             _print_warnings(warnings, runs_dir)
@@ -335,7 +380,8 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
         board_rows = [board_row(board_id, by_board[board_id]) for board_id, _ in instances]
         summary = summarize(board_rows, rollout_rows, 1 if reference else k)
         summary.update(config=config, split=split, evaluator_version=EVALUATOR_VERSION,
-                       weights=weights.as_dict(), reference=reference)
+                       weights=weights.as_dict(), reference=reference, set=identity,
+                       cache=cache_stats)
         if warnings:
             summary["runs_warnings"] = warnings
         label = name or ("Reference" if runs_dir is None else runs_dir.name)
@@ -343,6 +389,17 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
         _write_report(out, label, summary, table, rollout_rows, board_rows)
         return {"summary": summary, "table": table, "rollouts": rollout_rows,
                 "boards": board_rows}
+
+
+def _check_out(out: Path, root: Path, runs: Path | None) -> None:
+    """REPORT is a folder of its own: never inside the board set or the submission (their
+    `verify` and listing would then meet the report's files)."""
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out}: exists and is not a folder (REPORT is a folder)")
+    target = out.resolve()
+    for what, folder in (("the board set", root), ("RUNS", runs)):
+        if folder is not None and target.is_relative_to(folder.resolve()):
+            raise UserError(f"--out {out}: inside {what} ({folder}); give a folder outside it")
 
 
 def _plan(instances: list[tuple[str, Path]], runs: Path | None, k: int) -> Plan:
@@ -366,10 +423,15 @@ def _plan(instances: list[tuple[str, Path]], runs: Path | None, k: int) -> Plan:
 
 def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weights: Weights,
                 workers: int, task_timeout: float, progress: bool,
-                executor: Executor | str | None = None) -> list[dict]:
-    """The record of every rollout of `plan`: from the cache, else scored (and cached)."""
+                executor: Executor | str | None = None,
+                use_cache: bool = True) -> tuple[list[dict], dict]:
+    """(the record of every rollout of `plan`: from the cache, else scored and cached; what
+    the cache gave: `tampered` lines scored again, `used` False with --no-cache)."""
     cache_path = out / CACHE_NAME
-    cache = load_cache(cache_path)
+    cache, tampered = load_cache(cache_path) if use_cache else ({}, 0)
+    if tampered and progress:
+        print(f"pcbdata eval: warning: {cache_path}: {tampered} cached record(s) do not match "
+              f"their digest (edited?); those rollouts are scored again", file=sys.stderr)
     limits = (task_timeout, memory_limit_from_env())
     inst_keys = {d: instance_hash(d) for _, d in instances}
     records: list[dict | None] = [None] * len(plan)
@@ -383,16 +445,17 @@ def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weight
         keys.append(key)
         cached = cache.get(key) or cache.get(limit_cache_key(key, limits))
         if cached is not None:
-            records[i] = dict(cached)
+            records[i] = complete(cached, weights)
         else:
             todo.append(i)
     if progress:
         print(f"pcbdata eval: {len(plan)} rollouts on {len(instances)} boards; "
               f"{len(plan) - len(todo)} cached, {len(todo)} to score", file=sys.stderr)
+    stats = {"used": use_cache, "tampered": tampered}  # no run-dependent count: re-runs match
     if todo:
         with Evaluator(workers=workers, weights=weights, task_timeout=task_timeout,
                        executor=executor) as evaluator, \
-                open(cache_path, "a", encoding="utf-8") as cache_file:
+                open(cache_path, "a" if use_cache else "w", encoding="utf-8") as cache_file:
             pairs = [(plan[i][3], plan[i][4]) for i in todo]
             for done, (j, record) in enumerate(evaluator.score_many(pairs), start=1):
                 i = todo[j]
@@ -401,7 +464,7 @@ def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weight
                 _cache_record(cache_file, keys[i], record, limits)
                 if progress and (done % 50 == 0 or done == len(todo)):
                     print(f"  scored {done}/{len(todo)}", file=sys.stderr)
-    return [r for r in records if r is not None]
+    return [r for r in records if r is not None], stats
 
 
 def _cache_record(cache_file, key: str, record: dict, limits: tuple[float, int]) -> None:
@@ -409,7 +472,7 @@ def _cache_record(cache_file, key: str, record: dict, limits: tuple[float, int])
         if not is_limit_error(record["reason"].removeprefix("engine failure: ")):
             return  # a crash may not recur: score it again next run
         key = limit_cache_key(key, limits)  # a time-out holds under its limits
-    cache_file.write(json.dumps({"key": key, "record": record}, sort_keys=True) + "\n")
+    cache_file.write(cache_line(key, record))
     cache_file.flush()
 
 
@@ -425,7 +488,18 @@ def _rollout_rows(plan: Plan, records: list[dict], reference: bool, warnings: di
                      "time": time_s})
     if not reference:
         warnings["invalid_times"] = bad_times
+        timed = [row["time"] is not None for row in rows]
+        warnings["untimed"] = ([f"{row['board_id']}/{row['rollout']}" for row in rows
+                                if row["time"] is None] if any(timed) else [])
     return rows
+
+
+def set_line(identity: dict) -> str:
+    """The report's line naming the set it scored."""
+    verified = ("boards match the manifest" if identity["verified"] else
+                f"NOT VERIFIED: {identity['n_problems']} problem(s) against the manifest")
+    return (f"Set: {identity['config']} version {identity['set_version']}, manifest sha256 "
+            f"{identity['manifest_sha256']}; {verified}; release: {identity['release']}")
 
 
 def _write_report(out: Path, label: str, summary: dict, table: str, rollout_rows: list[dict],
@@ -434,6 +508,7 @@ def _write_report(out: Path, label: str, summary: dict, table: str, rollout_rows
     write_atomic(out / "per_board.csv", _csv(board_rows, BOARD_COLUMNS))
     write_atomic(out / "summary.json", json.dumps(summary, indent=1, sort_keys=True) + "\n")
     header = (f"# {label} on {summary['config']} / {summary['split']}\n\n@k = {summary['k']}, "
-              f"{summary['n_boards']} boards, {summary['n_rollouts']} rollouts, "
-              f"evaluator {EVALUATOR_VERSION}\n\n")
+              f"{summary['n_boards']} boards ({summary['n_boards_scored']} with a scored "
+              f"rollout), {summary['n_rollouts']} rollouts ({summary['n_timed']} with a time), "
+              f"evaluator {EVALUATOR_VERSION}\n\n{set_line(summary['set'])}\n\n")
     write_atomic(out / "summary.md", header + table)

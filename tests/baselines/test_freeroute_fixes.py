@@ -18,6 +18,7 @@ from pcbdata.specctra_text import (
     via_diameters,
     widen_wires_for_vias,
 )
+from tests.helpers import seal_set
 
 DSN = """(pcb x
   (resolution um 10)
@@ -93,7 +94,7 @@ def _one_board_set(tmp_path, level: str, board_id: str, count: int):
     config = "d2" if level == "default" else f"d2-{level}"
     root = tmp_path / f"set-{level}"
     shutil.copytree(built / config / "test" / board_id, root / config / "test" / board_id)
-    return root, config
+    return seal_set(root), config
 
 
 def _route_and_score(root, config, tmp_path, rollouts: int) -> list[dict]:

@@ -10,6 +10,7 @@ import pytest
 
 from pcbdata.cli import main
 from pcbdata.kicad import kicad_tools_route as kicad_tools
+from tests.helpers import seal_set
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "evaluator"))
 from boards import base_board, pad, write_instance  # noqa: E402
@@ -36,7 +37,7 @@ def test_route_with_kicad_tools_then_score(tmp_path):
     root = tmp_path / "set"
     board = base_board(pads=[pad(10, 10, "GND"), pad(40, 10, "GND"), pad(10, 25, "B"),
                              pad(40, 25, "B")])
-    write_instance(board, root / "d2" / "test" / "b0")
+    seal_set(write_instance(board, root / "d2" / "test" / "b0").parents[2])
     runs = tmp_path / "runs"
     assert main(["route", str(root), "--config", "d2", "--router", "kicad-tools", "--out",
                  str(runs), "--workers", "1", "--timeout", "240"]) == 0

@@ -14,6 +14,7 @@ D1_BOARDS = 2
 def write_set(root: Path, config: str, split: str, count: int) -> Path:
     from pcbdata.configs import get_config
     from pcbdata.kicad_writer import board_files
+    from tests.helpers import seal_set
 
     spec = get_config(config)
     generator = spec.generator()
@@ -23,7 +24,7 @@ def write_set(root: Path, config: str, split: str, count: int) -> Path:
         folder.mkdir(parents=True, exist_ok=True)
         for name, text in board_files(instance.board).items():
             (folder / name).write_text(text, encoding="utf-8")
-    return root
+    return seal_set(root)
 
 
 @pytest.fixture(scope="session")

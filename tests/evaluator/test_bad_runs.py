@@ -11,6 +11,7 @@ from boards import ROUTE_A, ROUTE_B, base_board, routed, write_board, write_inst
 from pcbdata.cli import main
 from pcbdata.errors import UserError
 from pcbdata.evaluator.runs import evaluate_set
+from tests.helpers import seal_set
 
 
 @pytest.fixture(scope="module")
@@ -18,7 +19,7 @@ def board_set(tmp_path_factory):
     root = tmp_path_factory.mktemp("set")
     for board_id in ("b0", "b1", "b2"):
         write_instance(base_board(), root / "d2" / "test" / board_id)
-    return root
+    return seal_set(root)
 
 
 @pytest.fixture(scope="module")

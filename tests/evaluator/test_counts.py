@@ -9,6 +9,7 @@ import pytest
 from boards import ROUTE_A, ROUTE_B, base_board, routed, track, write_board, write_instance
 
 from pcbdata.evaluator.runs import board_row, markdown_table, summarize
+from tests.helpers import seal_set
 
 STUB = track(30, 10, 30, 20, "A")  # a dangling track: a warning unless the project says error
 
@@ -34,9 +35,9 @@ def test_the_project_resolves_the_severity(evaluator, tmp_path, severity, drv, d
     assert (r["status"], r["drv"], r["drv_strict"]) == ("ok", drv, drv_strict)
     assert (r["cp"], r["cp_strict"]) == (int(drv == 0), int(drv_strict == 0))
     f = 3 * math.log(1.5) + math.log(1.5)  # one violation on net A
-    assert r["penalty"] == pytest.approx(f if drv else 0.0)
-    assert r["penalty_strict"] == pytest.approx(f if drv_strict else 0.0)
-    assert r["pot"] - r["pot_strict"] == pytest.approx(r["penalty_strict"] - r["penalty"])
+    assert r["penalty_evaluation"] == pytest.approx(f if drv else 0.0)
+    assert r["penalty"] == pytest.approx(f if drv_strict else 0.0)  # Pot.'s f: strict count
+    assert r["pot_evaluation"] - r["pot"] == pytest.approx(r["penalty"] - r["penalty_evaluation"])
 
 
 def rec(index, cp, drv, cp_strict, drv_strict, pot=1.0):
@@ -56,7 +57,7 @@ def test_board_rows_and_summary_carry_both_counts():
     table = markdown_table([("m", s)]).splitlines()
     assert table[0] == ("| Method | CP (%) | Pot. | Rout. | DRV | WL (mm) | Via | Time (s) | "
                         "CP+ (%) | DRV+ | Parse-fail (%) | Parse-fail @1 (%) | Invalid (%) |")
-    assert table[2].startswith("| m | 66.7 | 1.00 | 0.667 | 0.00 | 10.0 | 0.00 | 1.00 | "
+    assert table[2].startswith("| m | 66.7 | 0.67 | 0.667 | 0.00 | 10.0 | 0.00 | 1.00 | "
                                "33.3 | 1.00 |")
 
 
@@ -66,14 +67,14 @@ def test_reports_have_the_strict_columns(tmp_path):
     from pcbdata.evaluator import evaluate_set
 
     root, runs = tmp_path / "set", tmp_path / "runs" / "m"
-    write_instance(base_board(), root / "d2" / "test" / "b0")
+    seal_set(write_instance(base_board(), root / "d2" / "test" / "b0").parents[2])
     write_board(routed(base_board(), [ROUTE_A, ROUTE_B, STUB]), runs / "b0" / "0.kicad_pcb")
     result = evaluate_set(root, "d2", "test", tmp_path / "rep", runs=runs, k=1, progress=False)
     with open(tmp_path / "rep" / "per_rollout.csv", newline="") as handle:
         row = next(csv.DictReader(handle))
     assert (row["cp"], row["drv"], row["cp_strict"], row["drv_strict"]) == ("1", "0", "0", "1")
     assert json.loads(row["drv_strict_by_type"]) == {"track_dangling": 1}
-    assert float(row["pot"]) > float(row["pot_strict"])
+    assert float(row["pot_evaluation"]) > float(row["pot"])
     with open(tmp_path / "rep" / "per_board.csv", newline="") as handle:
         board = next(csv.DictReader(handle))
     assert (board["cp_strict"], board["drv_strict"]) == ("0", "1")

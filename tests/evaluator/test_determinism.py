@@ -14,6 +14,7 @@ from pcbdata.evaluator.core import MEASURE
 from pcbdata.evaluator.metrics import board_state, drc_penalty
 from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.kicad.scoring import violation_order, violation_records
+from tests.helpers import seal_set
 
 RUNS = 3
 
@@ -118,6 +119,7 @@ def test_reports_are_byte_identical_run_to_run(tangled, tmp_path):
         for rollout, name in enumerate(("tangled", "honest", "tangled")):
             (runs / board_id).mkdir(parents=True, exist_ok=True)
             shutil.copy(tangled[name], runs / board_id / f"{rollout}.kicad_pcb")
+    seal_set(root)
     reports = []
     for run in range(2):
         out = tmp_path / f"report{run}"

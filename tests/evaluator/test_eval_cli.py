@@ -9,6 +9,7 @@ import pytest
 from boards import ROUTE_A, ROUTE_B, base_board, pad, routed, track, write_board, write_instance
 
 from pcbdata.cli import main
+from tests.helpers import seal_set
 
 
 @pytest.fixture(scope="module")
@@ -16,7 +17,7 @@ def board_set(tmp_path_factory):
     root = tmp_path_factory.mktemp("set")
     for board_id in ("b0", "b1", "b2", "b3"):
         write_instance(base_board(), root / "d2" / "test" / board_id)
-    return root
+    return seal_set(root)
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +62,7 @@ def test_eval_reports(board_set, runs, tmp_path, capsys):
     printed = capsys.readouterr().out
     assert "| my-router |" in printed
     summary = json.loads((out / "summary.json").read_text())
-    for key in ("n_boards", "k", "cp", "pot", "pot_strict", "rout", "drv", "wl", "via", "time",
+    for key in ("n_boards", "k", "cp", "pot", "pot_evaluation", "rout", "drv", "wl", "via", "time",
                 "parse_fail",
                 "parse_fail_at1", "invalid"):
         assert key in summary
@@ -114,6 +115,7 @@ def test_eval_reference(board_set, tmp_path, capsys):
     shutil.copytree(board_set, root)
     for folder in (root / "d2" / "test").iterdir():
         write_board(routed(base_board(), [ROUTE_A, ROUTE_B]), folder / "reference.kicad_pcb")
+    seal_set(root)
     out = tmp_path / "ref"
     assert main(["eval", str(root), "--config", "d2", "--reference", "--out", str(out)]) == 0
     assert "| Reference |" in capsys.readouterr().out

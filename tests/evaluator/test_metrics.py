@@ -1,6 +1,7 @@
 """The pure math of SPEC section 4 on synthetic measurements (no KiCad)."""
 from __future__ import annotations
 
+import json
 import math
 
 import pytest
@@ -14,6 +15,7 @@ from pcbdata.evaluator.metrics import (
     is_counted,
     pick_best,
     potential,
+    raw_counts,
     rollout_metrics,
     routability,
     selection_key,
@@ -92,27 +94,32 @@ def measurement(violations, clusters, wl=0.0, vias=0, nets=3):
             "vias": vias, "net_count": nets, "fingerprint": {}}
 
 
+def scores(bare: dict, routed: dict) -> dict:
+    """The figures of a rollout, from the raw counts the evaluator keeps (as it caches them)."""
+    return rollout_metrics(json.loads(json.dumps(raw_counts(bare, routed))))
+
+
 def test_rollout_metrics_clean_and_gain():
     bare = measurement([v("unconnected_items", section="unconnected", nets=("A",)),
                         v("unconnected_items", section="unconnected", nets=("B",))],
                        {"A": 2, "B": 2})
     routed = measurement([], {"A": 1, "B": 1}, wl=80.0)
-    m = rollout_metrics(bare, routed)
+    m = scores(bare, routed)
     phi_bare = -2 - (3 * math.log(2) + 2 * math.log(1.5))
     assert m["phi_bare"] == pytest.approx(phi_bare)
     assert m["pot"] == pytest.approx(math.log(4) - 0.16 - phi_bare)
     assert (m["cp"], m["rout"], m["drv"], m["wl"], m["via"]) == (1, 1.0, 0, 80.0, 0)
-    assert (m["cp_strict"], m["drv_strict"], m["pot_strict"]) == (1, 0, m["pot"])
+    assert (m["cp_strict"], m["drv_strict"], m["pot_evaluation"]) == (1, 0, m["pot"])
     # routability 1 and one dangling-track warning: a clean pass, not a strict one (CP+)
-    m = rollout_metrics(bare, measurement([v("track_dangling", severity="warning")],
+    m = scores(bare, measurement([v("track_dangling", severity="warning")],
                                           {"A": 1, "B": 1}))
     assert (m["cp"], m["drv"], m["drv_by_type"]) == (1, 0, {})
     assert (m["cp_strict"], m["drv_strict"], m["drv_strict_by_type"]) == (
         0, 1, {"track_dangling": 1})
     f = 3 * math.log(1.5) + math.log(1.5)
-    assert m["penalty_strict"] == pytest.approx(f) and m["penalty"] == 0.0
-    assert m["pot"] - m["pot_strict"] == pytest.approx(f)
-    assert m["phi_bare"] == m["phi_bare_strict"]  # the bare board has no warnings
+    assert m["penalty"] == pytest.approx(f) and m["penalty_evaluation"] == 0.0
+    assert m["pot_evaluation"] - m["pot"] == pytest.approx(f)
+    assert m["phi_bare"] == m["phi_bare_evaluation"]  # the bare board has no warnings
 
 
 def test_board_state_takes_the_counting():
@@ -121,11 +128,11 @@ def test_board_state_takes_the_counting():
     board = {"violations": [v("clearance", nets=("A", "B")), v("via_dangling", severity="warning"),
                             v("unconnected_items", section="unconnected", nets=("B",))],
              "wl_mm": 10.0, "vias": 1, "net_count": 3}
-    evaluation, strict = board_state(board), board_state(board, counting="strict")
+    evaluation, strict = board_state(board, counting="evaluation"), board_state(board)
     assert (evaluation["drv"], strict["drv"]) == (2, 3)
     assert evaluation["unconnected"] == strict["unconnected"] == 1
     assert strict["penalty"] > evaluation["penalty"] and strict["phi"] < evaluation["phi"]
-    assert board_state(board, counting="evaluation") == evaluation
+    assert board_state(board, counting="strict") == strict  # the default: Pot.'s count
 
 
 def rec(index, pot, rout=1.0, drv=0, wl=10.0, via=0, status="ok"):
@@ -155,7 +162,9 @@ def test_board_and_set_summary():
     assert rows[1]["parse_fail"] == 1 and rows[1]["cp"] == 0 and rows[1]["rout"] == 0.0
     s = summarize(rows, good + [failed], k=5)
     assert s["n_boards"] == 2 and s["k"] == 5
-    assert s["cp"] == 0.0 and s["rout"] == 0.5 and s["pot"] == 3.0 and s["drv"] == 1
+    # b1 has no scored rollout: it counts as its bare board (Pot. 0) in Pot., not in DRV
+    assert s["cp"] == 0.0 and s["rout"] == 0.5 and s["pot"] == 1.5 and s["drv"] == 1
+    assert rows[1]["pot"] == 0.0 and rows[1]["drv"] is None and s["n_boards_scored"] == 1
     assert s["time"] == pytest.approx(8 / 3)  # mean over all rollouts' times
     assert s["parse_fail"] == 0.5 and s["parse_fail_at1"] == pytest.approx(1 / 3)
     assert s["invalid"] == 0.0

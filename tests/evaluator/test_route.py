@@ -12,6 +12,7 @@ from pcbdata.baselines.specctra import freeroute_available
 from pcbdata.cli import main
 from pcbdata.kicad.specctra import fix_ses_resolution, strip_ses_placement
 from pcbdata.specctra_text import flip_back_components, restore_back_placements
+from tests.helpers import seal_set
 
 DSN = """(pcb x
   (resolution um 10)
@@ -71,7 +72,7 @@ def small_set(tmp_path):
     board = base_board(pads=[pad(10.1234567, 10, "A"), pad(50, 10, "A", layer="B.Cu"),
                              pad(10, 30, "B"), pad(50, 30, "B")])
     write_instance(board, root / "d2" / "test" / "b0")
-    return root
+    return seal_set(root)
 
 
 @pytest.mark.skipif(not freeroute_available(), reason="freeroute is not installed")

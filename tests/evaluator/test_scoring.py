@@ -78,8 +78,8 @@ def test_dangling_track(evaluator, instance, tmp_path):
     assert (r["cp_strict"], r["drv_strict"], r["drv_strict_by_type"]) == (
         0, 1, {"track_dangling": 1})
     assert r["wl"] == pytest.approx(90.0)
-    assert r["pot"] == pytest.approx(LN_1_PLUS_N - 0.002 * 90 - PHI_BARE)
-    assert r["pot_strict"] == pytest.approx(LN_1_PLUS_N - 3 * math.log(1.5) - math.log(1.5)
+    assert r["pot_evaluation"] == pytest.approx(LN_1_PLUS_N - 0.002 * 90 - PHI_BARE)
+    assert r["pot"] == pytest.approx(LN_1_PLUS_N - 3 * math.log(1.5) - math.log(1.5)
                                             - 0.002 * 90 - PHI_BARE)
 
 

@@ -19,7 +19,7 @@ import pytest
 from d2_boards import write_d2_instance, write_honest_board, write_honest_board_with_other_uuids
 
 from pcbdata.evaluator.core import MEASURE
-from pcbdata.evaluator.metrics import counted_violations, rollout_metrics
+from pcbdata.evaluator.metrics import counted_violations, raw_counts, rollout_metrics
 from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.kicad.scoring import violation_records
 
@@ -258,7 +258,7 @@ def test_transplanted_copper_measures_like_the_honest_board(d2, honest, kicad_po
     measured = kicad_pool.call(MEASURE, str(smuggled_board(d2, smuggle)), str(d2["instance"]))
     assert {k: measured[k] for k in MEASURED} == {k: honest["measured"][k] for k in MEASURED}
     assert measured["copper_problems"] == []
-    scores = rollout_metrics(honest["bare"], measured)
+    scores = rollout_metrics(raw_counts(honest["bare"], measured))
     assert scores == {k: honest["record"][k] for k in scores}
 
 
