@@ -11,7 +11,7 @@ import pytest
 from pcbdata.board import mm_to_nm
 from pcbdata.cli import main
 from pcbdata.evaluator import score
-from pcbdata.generators import D2Generator, D2Params
+from pcbdata.generators import D1Generator, D1Params, D2Generator, D2Params
 from pcbdata.kicad_writer import mm
 from tests.helpers import write_board
 
@@ -108,3 +108,14 @@ def test_every_level_writes_its_via_size_as_the_project_minimum(tmp_path, capsys
         assert rules["min_via_diameter"] == netclass["via_diameter"] == params["via_diameter_mm"]
         assert (rules["min_through_hole_diameter"] == netclass["via_drill"]
                 == params["via_drill_mm"]), name
+        # no severity is written: KiCad's defaults make both via checks errors (test above)
+        assert "rule_severities" not in project["board"]["design_settings"]
+
+
+def test_d1_keeps_its_floors_as_its_custom_rule_forbids_every_via(tmp_path):
+    board = D1Generator(D1Params(grid=10)).generate(0, "test", 0).board
+    write_board(tmp_path, board)
+    rules = json.loads((tmp_path / "board.kicad_pro").read_text())["board"]["design_settings"]
+    assert (rules["rules"]["min_via_diameter"], rules["rules"]["min_through_hole_diameter"]) == (
+        0.5, 0.3)
+    assert "disallow track via" in (tmp_path / "board.kicad_dru").read_text()
