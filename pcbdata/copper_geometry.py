@@ -79,14 +79,13 @@ def arc_polyline(start: Point, mid: Point, end: Point,
              cy + radius * math.sin(begin + sweep * i / count)) for i in range(count + 1)]
 
 
-def outline_shape(polygons: Sequence[tuple[Ring, Sequence[Ring]]], tolerance: float):
-    """The board as a shapely geometry from (outer ring, holes) pairs, grown by `tolerance`
-    (KiCad approximates curved edges within a few micrometres)."""
+def outline_shape(polygons: Sequence[tuple[Ring, Sequence[Ring]]], margin: float):
+    """The board as a shapely geometry from (outer ring, holes) pairs, grown by `margin`."""
     from shapely.geometry import Polygon
     from shapely.ops import unary_union
 
     shape = unary_union([Polygon(outer, holes) for outer, holes in polygons if len(outer) >= 3])
-    return shape.buffer(tolerance)
+    return shape.buffer(margin)
 
 
 def item_path(item: dict, tolerance: float) -> list[tuple[float, float]]:

@@ -43,8 +43,12 @@ _BRACKET = re.compile(r'"(?:[^"\\]|\\.)*"|[()]')
 _ATOM = re.compile(r'"(?:[^"\\]|\\.)*"|[^\s"]+')
 _REFERENCE = re.compile(r'\(property "Reference" "((?:[^"\\]|\\.)*)"')
 _LAYER = re.compile(r'\(layer "((?:[^"\\]|\\.)*)"')
-#: How far (nm) a centre line may stray past the outline: KiCad approximates curved edges.
-OUTLINE_TOLERANCE = 10_000
+#: How far (nm) a centre line may run past the board outline before the rollout is invalid;
+#: closer copper is the DRC's (copper_edge_clearance). Real boards run tracks onto edge pads
+#: past the cut: a D3-A reference board's track ends 0.5 mm beyond its edge.
+OUTLINE_MARGIN = 1_000_000
+#: How far (nm) an arc's polyline may stray from the arc in the outline check.
+ARC_TOLERANCE = 1_000
 _OFF_LAYER = "is on a layer the instance has no copper on"
 
 
@@ -483,14 +487,16 @@ def _path_text(item: dict) -> str:
 
 
 def outline_problem(items: list[dict], board) -> str | None:
-    """Copper whose centre line leaves the instance's board outline (a track to x = -1e9 mm is
-    clamped by KiCad to about -2.1 m and raises no edge-clearance violation)."""
-    shape = outline_shape(board_polygons(board), OUTLINE_TOLERANCE)
-    outside = items_outside(items, shape, OUTLINE_TOLERANCE)
+    """Copper whose centre line runs more than `OUTLINE_MARGIN` past the instance's board
+    outline (a track to x = -1e9 mm is clamped by KiCad to about -2.1 m and raises no
+    edge-clearance violation)."""
+    shape = outline_shape(board_polygons(board), OUTLINE_MARGIN)
+    outside = items_outside(items, shape, ARC_TOLERANCE)
     if not outside:
         return None
     more = f" (and {len(outside) - 1} more)" if len(outside) > 1 else ""
-    return f"{_path_text(items[outside[0]])} leaves the board outline{more}"
+    return (f"{_path_text(items[outside[0]])} leaves the board outline (by more than "
+            f"{OUTLINE_MARGIN / 1e6:g} mm){more}")
 
 
 def dropped_problems(in_file: list[dict], loaded: list[dict]) -> list[str]:
