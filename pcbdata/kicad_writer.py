@@ -165,9 +165,30 @@ def board_text(board: Board) -> str:
     return "".join(out)
 
 
+# The floors every board had before vias were held to the netclass; D1 keeps them.
+_LEGACY_VIA_FLOOR_NM = 500_000
+_LEGACY_HOLE_FLOOR_NM = 300_000
+
+
+def via_floors(rules: Rules) -> tuple[int, int]:
+    """The project's smallest via diameter and hole (nm).
+
+    Where vias are allowed these are the netclass via and drill, so KiCad's DRC flags a smaller
+    via (`via_diameter`, `drill_out_of_range`): a router must not pass a gap by shrinking its
+    vias. KiCad applies the hole floor to pad holes too, so the generators keep pad drills at or
+    above the via drill. A one-layer board (D1) forbids every via by its custom rule, so the
+    floors decide nothing there; it keeps the older ones and with them its released bytes.
+    """
+    if rules.single_layer is not None:
+        return (min(_LEGACY_VIA_FLOOR_NM, rules.via_diameter),
+                min(_LEGACY_HOLE_FLOOR_NM, rules.via_drill))
+    return rules.via_diameter, rules.via_drill
+
+
 def project_text(rules: Rules, filename: str = PROJECT_FILE) -> str:
     """The `.kicad_pro` JSON: design rules and the Default netclass; KiCad fills the rest."""
     as_mm = lambda nm: float(mm(nm))  # noqa: E731
+    via_floor, hole_floor = via_floors(rules)
     project = {
         "board": {
             "design_settings": {
@@ -175,8 +196,8 @@ def project_text(rules: Rules, filename: str = PROJECT_FILE) -> str:
                     "min_clearance": 0.0,
                     "min_copper_edge_clearance": as_mm(rules.edge_clearance),
                     "min_track_width": as_mm(rules.track_width),
-                    "min_via_diameter": min(0.5, as_mm(rules.via_diameter)),
-                    "min_through_hole_diameter": min(0.3, as_mm(rules.via_drill)),
+                    "min_via_diameter": as_mm(via_floor),
+                    "min_through_hole_diameter": as_mm(hole_floor),
                 },
             },
         },

@@ -111,6 +111,8 @@ def integrity_problems(bare: dict[str, list[str]], routed: dict[str, list[str]])
 
 def rollout_problems(bare: dict, routed: dict) -> list[str]:
     """Every reason why a measured submission is invalid: copper that cannot stand on the
-    instance (a net it lacks, a layer it does not enable), then fingerprint differences."""
+    instance (coordinates beyond KiCad's range, a layer without copper, items KiCad dropped, a
+    net it lacks, a via of two sizes, copper off the board outline; `scoring.measure`), then
+    fingerprint differences."""
     return list(routed.get("copper_problems", [])) + integrity_problems(
         bare["fingerprint"], routed["fingerprint"])

@@ -156,10 +156,11 @@ class D2Params:
         if _short(self.pad_size_mm - self.drill_mm, 2 * KICAD_MIN_ANNULAR_MM):
             out.append(f"through-hole pads {self.pad_size_mm}/{self.drill_mm} mm leave an annular "
                        f"ring under KiCad's minimum {KICAD_MIN_ANNULAR_MM} mm")
-        smallest = min(0.3, self.via_drill_mm)  # the project's minimum hole (kicad_writer)
-        if _short(self.drill_mm, smallest):
+        # KiCad holds pad holes to the project's minimum hole, the via drill (kicad_writer).
+        if _short(self.drill_mm, self.via_drill_mm):
             out.append(f"drill_mm {self.drill_mm} is below the projects' minimum hole size "
-                       f"{smallest:g} mm (the smaller of 0.3 mm and via_drill_mm)")
+                       f"{self.via_drill_mm:g} mm (via_drill_mm, which KiCad also applies to "
+                       f"pad holes)")
         hole_gap = self.min_pad_spacing_mm - self.drill_mm / 2 - self._reach(
             smd=self.through_hole_fraction < 1)
         if _short(hole_gap, KICAD_HOLE_CLEARANCE_MM):

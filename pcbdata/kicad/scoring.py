@@ -19,6 +19,8 @@ import os
 import re
 import tempfile
 
+from pcbdata.copper_geometry import arc_length, items_outside, outline_shape
+from pcbdata.copper_text import copper_in_file, file_problems, kind_counts
 from pcbdata.kicad.basics import board_drc_text, stage_with_project
 from pcbdata.kicad.basics import pcbnew_module as _pcbnew
 from pcbdata.kicad.drc_report import NO_NET, parse_drc_report
@@ -41,6 +43,13 @@ _BRACKET = re.compile(r'"(?:[^"\\]|\\.)*"|[()]')
 _ATOM = re.compile(r'"(?:[^"\\]|\\.)*"|[^\s"]+')
 _REFERENCE = re.compile(r'\(property "Reference" "((?:[^"\\]|\\.)*)"')
 _LAYER = re.compile(r'\(layer "((?:[^"\\]|\\.)*)"')
+#: How far (nm) a centre line may run past the board outline before the rollout is invalid;
+#: closer copper is the DRC's (copper_edge_clearance). Real boards run tracks onto edge pads
+#: past the cut: a D3-A reference board's track ends 0.5 mm beyond its edge.
+OUTLINE_MARGIN = 1_000_000
+#: How far (nm) an arc's polyline may stray from the arc in the outline check.
+ARC_TOLERANCE = 1_000
+_OFF_LAYER = "is on a layer the instance has no copper on"
 
 
 def stage_board(board_path: str, instance_dir: str, tmp: str) -> str:
@@ -105,7 +114,7 @@ def copper_problem(item: dict, board) -> str | None:
         return f"{_where(item)} is on net {item['net']!r}, which the instance lacks"
     if any(not pcbnew.IsCopperLayer(layer) or not board.IsLayerEnabled(layer) for layer in layers):
         names = ", ".join(str(board.GetLayerName(layer)) for layer in layers)
-        return f"{_where(item)} is on a layer the instance has no copper on ({names})"
+        return f"{_where(item)} {_OFF_LAYER} ({names})"
     if item["kind"] == "via" and len(item["widths"]) != 1:
         return f"{_where(item)} has different sizes on different layers"
     return None
@@ -387,16 +396,21 @@ def pad_clusters(board) -> dict[str, int]:
 
 
 def copper_totals(board) -> tuple[float, int]:
-    """(total length of track segments and arcs in mm, number of vias); the lengths are summed
-    exactly (fsum), so the order of the tracks cannot change the last digit."""
+    """(total length of track segments and arcs in mm, number of vias). Lengths are geometric
+    (an arc from its three points, `copper_geometry.arc_length`, never KiCad's `GetLength()`,
+    which is wrong for nearly straight arcs) and summed exactly (fsum), so the order of the
+    tracks cannot change the last digit."""
     pcbnew = _pcbnew()
     lengths, vias = [], 0
     for track in board.GetTracks():
         kind = track.Type()
         if kind == pcbnew.PCB_VIA_T:
             vias += 1
-        elif kind in (pcbnew.PCB_TRACE_T, pcbnew.PCB_ARC_T):
-            lengths.append(track.GetLength())  # an arc's length is its arc length
+        elif kind == pcbnew.PCB_ARC_T:
+            lengths.append(arc_length(_xy(track.GetStart()), _xy(track.GetMid()),
+                                      _xy(track.GetEnd())))
+        elif kind == pcbnew.PCB_TRACE_T:
+            lengths.append(math.dist(_xy(track.GetStart()), _xy(track.GetEnd())))
     return math.fsum(lengths) / 1e6, vias
 
 
@@ -431,22 +445,86 @@ def drc_violations(board) -> list[dict]:
 
 def measure(board_path: str, instance_dir: str) -> dict:
     """Every raw measurement the evaluator needs for `board_path` scored on the instance in
-    `instance_dir`: the fingerprint of the submitted board and the problems of its copper, and,
-    on the instance's board with that copper transplanted, the DRC violations, pad clusters per
-    net, WL, vias and net count."""
+    `instance_dir`: the fingerprint of the submitted board and the problems of its copper (as
+    the file holds it and as KiCad loaded it), and, on the instance's board with that copper
+    transplanted, the DRC violations, pad clusters per net, WL, vias and net count."""
+    with open(board_path, "rb") as handle:
+        in_file = copper_in_file(handle.read())  # before KiCad drops or clamps anything
     with tempfile.TemporaryDirectory(prefix="pcbdata-score-") as tmp:
         try:
             submitted = _load_staged(board_path, instance_dir, os.path.join(tmp, "submitted"))
         except Exception as exc:  # noqa: BLE001 - KiCad raises IOError with a parser message
             return {"loaded": False, "reason": f"KiCad could not load the board: {exc}".strip()}
-        return _measure_loaded(submitted, instance_dir, tmp)
+        return _measure_loaded(submitted, in_file, instance_dir, tmp)
 
 
-def _measure_loaded(submitted, instance_dir: str, tmp: str) -> dict:
+def copper_layer_names(board) -> set[str]:
+    """Every name the board's enabled copper layers go by (standard and user names)."""
+    pcbnew = _pcbnew()
+    layers = board.GetEnabledLayers().CuStack()
+    return ({str(pcbnew.BOARD.GetStandardLayerName(layer)) for layer in layers}
+            | {str(board.GetLayerName(layer)) for layer in layers})
+
+
+def board_polygons(board) -> list[tuple[list[list[int]], list[list[list[int]]]]]:
+    """The board outline as (outer ring, holes) pairs in nm; KiCad's fallback (a box around
+    the board's items) when Edge.Cuts is not a closed shape."""
+    polys = _pcbnew().SHAPE_POLY_SET()
+    board.GetBoardPolygonOutlines(polys)
+
+    def ring(chain) -> list[list[int]]:
+        return [_xy(chain.CPoint(i)) for i in range(chain.PointCount())]
+
+    return [(ring(polys.COutline(i)), [ring(polys.CHole(i, h)) for h in range(polys.HoleCount(i))])
+            for i in range(polys.OutlineCount())]
+
+
+def _path_text(item: dict) -> str:
+    if item["kind"] == "via":
+        return _where(item)
+    ends = " - ".join(f"({x / 1e6:g}, {y / 1e6:g})" for x, y in (item["start"], item["end"]))
+    return f"{item['kind']} {ends} mm"
+
+
+def outline_problem(items: list[dict], board) -> str | None:
+    """Copper whose centre line runs more than `OUTLINE_MARGIN` past the instance's board
+    outline (a track to x = -1e9 mm is clamped by KiCad to about -2.1 m and raises no
+    edge-clearance violation)."""
+    shape = outline_shape(board_polygons(board), OUTLINE_MARGIN)
+    outside = items_outside(items, shape, ARC_TOLERANCE)
+    if not outside:
+        return None
+    more = f" (and {len(outside) - 1} more)" if len(outside) > 1 else ""
+    return (f"{_path_text(items[outside[0]])} leaves the board outline (by more than "
+            f"{OUTLINE_MARGIN / 1e6:g} mm){more}")
+
+
+def dropped_problems(in_file: list[dict], loaded: list[dict]) -> list[str]:
+    """Items of the file that KiCad did not load (per kind)."""
+    found, kept = kind_counts(in_file), kind_counts(loaded)
+    return [f"KiCad loaded {kept[kind]} of the file's {count} {kind}s (it dropped the others)"
+            for kind, count in found.items() if kept[kind] != count]
+
+
+def submission_problems(in_file: list[dict], items: list[dict], board) -> list[str]:
+    """Every reason the submission's copper cannot be scored on the instance's `board`: its
+    file's own items (coordinates beyond KiCad's range, layers without copper), items KiCad
+    dropped, copper KiCad loaded that cannot stand on the instance, copper off the board."""
+    from_file = file_problems(in_file, copper_layer_names(board))
+    loaded = copper_problems(items, board)
+    if any(_OFF_LAYER in p for p in from_file):  # the file names them all, KiCad's survivors too
+        loaded = [p for p in loaded if _OFF_LAYER not in p]
+    standing = [item for item in items if copper_problem(item, board) is None]
+    problems = from_file + dropped_problems(in_file, items) + loaded
+    problems.append(outline_problem(standing, board) or "")
+    return [p for p in problems if p]
+
+
+def _measure_loaded(submitted, in_file: list[dict], instance_dir: str, tmp: str) -> dict:
     items = copper_items(submitted)
     board = _load_staged(os.path.join(instance_dir, "board.kicad_pcb"), instance_dir,
                          os.path.join(tmp, "instance"))
-    problems = copper_problems(items, board)
+    problems = submission_problems(in_file, items, board)
     transplant(items, board)
     wl, vias = copper_totals(board)
     return {

@@ -15,7 +15,8 @@ from tests.conftest import REPO_ROOT
 
 PACKAGE = REPO_ROOT / "pcbdata"
 LEAVES = {"pcbdata.errors", "pcbdata.hashing", "pcbdata.textio", "pcbdata.tree",
-          "pcbdata.sexpr_text", "pcbdata.specctra_text", "pcbdata.ratsnest"}
+          "pcbdata.sexpr_text", "pcbdata.specctra_text", "pcbdata.ratsnest",
+          "pcbdata.copper_geometry", "pcbdata.copper_text"}
 THIRD_PARTY_ALLOWED = {"pcbnew"}
 #: Pure numerics and geometry, no KiCad: the leaves may use them (cut-file check, Specctra
 #: boundary inset).

@@ -62,7 +62,7 @@ def test_a_fresh_build_matches_its_pinned_releases(built, capsys):
     code, out = _verify(built, capsys, "--release")
     assert code == 0, out
     d2 = resource_path("releases", "d2.json.gz")
-    assert (f"release d2 1.0.0 ({d2}): matches (subset of the release: test 128 of 128 boards; "
+    assert (f"release d2 2.0.0 ({d2}): matches (subset of the release: test 128 of 128 boards; "
             f"not in this set: train, validation)") in out
     assert "release d1-g10 1.0.0 (" in out and "test 4 of 128 boards" in out
     assert out.rstrip().endswith(f"verify {built} --release: 132 boards in d1-g10, d2: OK")
@@ -78,7 +78,7 @@ def test_a_board_edited_with_its_manifest_entry_passes_verify_but_not_release(bu
     code, out = _verify(built_copy, capsys, "--release")
     assert code == 1
     assert f"{EDITED}: differs from the pinned release (board.kicad_pcb)" in out.splitlines()
-    assert "release d2 1.0.0 (" in out and ": 1 difference(s)" in out
+    assert "release d2 2.0.0 (" in out and ": 1 difference(s)" in out
     assert "release d1-g10 1.0.0 (" in out and "d1-g10.json.gz): matches" in out
     with pytest.raises(UserError, match=f"{EDITED}: board.kicad_pcb altered .row sha256 differs "
                                         f"from the pinned release"):
@@ -89,7 +89,7 @@ def test_a_board_edited_with_its_manifest_entry_passes_verify_but_not_release(bu
 def test_a_set_claiming_the_release_with_other_parameters_or_version_fails(built_copy, capsys):
     manifest = read_manifest(built_copy)
     manifest["configs"]["d2"]["parameters"]["min_pad_spacing_mm"] = 5.0
-    manifest["configs"]["d2"]["set_version"] = "1.1.0"
+    manifest["configs"]["d2"]["set_version"] = "2.1.0"
     write_manifest(built_copy, manifest)
     publish_set(built_copy, previews=0)
     assert _verify(built_copy, capsys)[0] == 0
@@ -97,8 +97,8 @@ def test_a_set_claiming_the_release_with_other_parameters_or_version_fails(built
     assert code == 1
     lines = out.splitlines()
     assert "d2: parameters.min_pad_spacing_mm is 5.0, the release has 4.8" in lines
-    assert "d2: set_version is '1.1.0', the release has '1.0.0'" in lines
-    with pytest.raises(UserError, match="rows say set_version '1.1.0', the release is '1.0.0'"):
+    assert "d2: set_version is '2.1.0', the release has '2.0.0'" in lines
+    with pytest.raises(UserError, match="rows say set_version '2.1.0', the release is '2.0.0'"):
         pcbdata.load("d2", split="test", root=built_copy, release=True)
 
 
@@ -178,7 +178,7 @@ def test_a_declared_subset_may_hold_only_released_boards_and_no_more_than_the_re
     test["count"] = 3
     [check] = check_release(manifest)
     assert check.problems == [] and check.subset
-    assert "test 3 of 128 boards" in check.line() and check.line().startswith("release d2 1.0.0 (")
+    assert "test 3 of 128 boards" in check.line() and check.line().startswith("release d2 2.0.0 (")
 
     test["boards"]["board_99999"] = test["boards"][kept[0]]
     test["count"] = 4
