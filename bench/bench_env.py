@@ -38,7 +38,7 @@ def _episodes(root: Path, config: str, drc: str, limit: int, mode: int, preload:
     from pcbdata.env.rollout import run_episode
 
     engine_env = {"LD_PRELOAD": preload} if preload else None
-    env = gym.make(f"pcbdata/Route-{config}-v1", root=str(root), split="test", drc=drc,
+    env = gym.make(f"pcbdata/Route-{config}-v2", root=str(root), split="test", drc=drc,
                    engine_env=engine_env)
     env.reset(seed=0)  # the worker's start-up is not an episode's time
     times, steps, records = [], 0, []

@@ -1,6 +1,6 @@
 """The routing environment on a Ray cluster: environment workers as Ray actors.
 
-    actors = make_actors(4, "pcbdata/Route-d2-v1", root="/shared/d2", split="test")
+    actors = make_actors(4, "pcbdata/Route-d2-v2", root="/shared/d2", split="test")
     episodes = step_episodes(actors, lambda seed: ScriptedAgent(seed=seed),
                              [("board_00000", 0), ("board_00001", 0), ...])
     close_actors(actors)
@@ -38,6 +38,8 @@ from pcbdata.errors import EngineError
 
 #: (board_id or None for the environment's seeded pick, seed) of one episode.
 EpisodeSpec = tuple[str | None, int]
+#: What `_Run` asks for when its agent is done: the environment's `finish_episode()`.
+FINISH = "finish_episode"
 
 
 class EnvActorError(EngineError):
@@ -61,6 +63,11 @@ class EnvActor:
 
     def step(self, action) -> tuple[dict, float, bool, bool, dict]:
         obs, reward, terminated, truncated, info = self.env.step(action)
+        return obs, float(reward), bool(terminated), bool(truncated), info
+
+    def finish_episode(self) -> tuple[dict, float, bool, bool, dict]:
+        """Ends the episode early (`RoutingEnv.finish_episode`): its last transition."""
+        obs, reward, terminated, truncated, info = self.env.unwrapped.finish_episode()
         return obs, float(reward), bool(terminated), bool(truncated), info
 
     def save(self, path: str) -> str:
@@ -164,8 +171,9 @@ def observation_digest(obs) -> str:
 
 class _Run:
     """One episode in progress: turns each (obs, ...) the environment returns into the next
-    action, or None when the episode is over (as `pcbdata.env.rollout.run_episode` decides:
-    terminated, truncated, or an agent whose `done` turns True)."""
+    action, `FINISH` when the agent's `done` turns True (the episode is ended with
+    `finish_episode()`, as `pcbdata.env.rollout.run_episode` does), or None when the episode
+    is over (terminated or truncated)."""
 
     def __init__(self, index: int, spec: EpisodeSpec, agent):
         self.index, self.agent = index, agent
@@ -179,12 +187,19 @@ class _Run:
         self.record = Episode(board_id=info["board_id"], seed=self.seed)
         return self._next(obs, info, False, False)
 
-    def stepped(self, obs, reward: float, terminated: bool, truncated: bool, info) -> Any:
+    def stepped(self, obs, reward: float, terminated: bool, truncated: bool, info,
+                counted: bool = True) -> Any:
+        """After a step (or, not `counted` as a step, after `finish_episode()`)."""
         record = self.episode()
-        record.steps += 1
+        record.steps += int(counted)
         record.rewards.append(float(reward))
         record.reward += float(reward)
         return self._next(obs, info, terminated, truncated)
+
+    def finished(self, transition) -> Any:
+        """After `finish_episode()`: its transition, not counted as a step."""
+        obs, reward, terminated, truncated, info = transition
+        return self.stepped(obs, reward, terminated, truncated, info, counted=False)
 
     def _next(self, obs, info, terminated: bool, truncated: bool) -> Any:
         record = self.episode()
@@ -195,7 +210,7 @@ class _Run:
         if terminated or truncated:
             return None
         act = self.agent.act(obs, info)
-        return None if getattr(self.agent, "done", False) else act
+        return FINISH if getattr(self.agent, "done", False) else act
 
     def episode(self) -> Episode:
         assert self.record is not None, "started() comes first"
@@ -217,7 +232,10 @@ def run_episodes(env, agent_factory: Callable[[int], Any], episodes: Iterable[Ep
         seed, options = run.reset_args()
         act = run.started(*env.reset(seed=seed, options=options))
         while act is not None:
-            act = run.stepped(*env.step(act))
+            if act is FINISH:
+                act = run.finished(env.unwrapped.finish_episode())
+            else:
+                act = run.stepped(*env.step(act))
         path = run.save_path(save_dir)
         if path is not None:
             run.episode().saved = env.unwrapped.save(path)
@@ -248,11 +266,10 @@ def step_episodes(actors: Sequence[Any], agent_factory: Callable[[int], Any],
         for ref in ready:
             actor, run, asked = running.pop(ref)
             value = _get(ray, ref, actor, run, asked)
-            if asked == "save":
-                run.episode().saved = value
-                act = None
-            else:
-                act = run.started(*value) if asked == "reset" else run.stepped(*value)
+            act = _after(run, asked, value)
+            if act is FINISH:
+                running[actors[actor].finish_episode.remote()] = (actor, run, "finish")
+                continue
             if act is not None:
                 running[actors[actor].step.remote(act)] = (actor, run, "step")
                 continue
@@ -263,6 +280,16 @@ def step_episodes(actors: Sequence[Any], agent_factory: Callable[[int], Any],
             results[run.index] = run.episode()
             idle.append(actor)
     return [results[i] for i in sorted(results)]
+
+
+def _after(run: _Run, asked: str, value) -> Any:
+    """The next request of `run` once the actor answered `asked` with `value`."""
+    if asked == "save":
+        run.episode().saved = value
+        return None
+    if asked == "reset":
+        return run.started(*value)
+    return run.stepped(*value) if asked == "step" else run.finished(value)
 
 
 def _get(ray, ref, actor: int, run: _Run, asked: str):

@@ -111,7 +111,7 @@ def test_d3_summed_reward_equals_pot(d3_set, kicad_pool, tmp_path):
 
     if not any((d3_set / "d3-a" / "test").glob("*/board.kicad_pcb")):
         pytest.skip("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
-    env = gym.make("pcbdata/Route-d3-a-v1", root=str(d3_set), drc="terminal", max_steps=60,
+    env = gym.make("pcbdata/Route-d3-a-v2", root=str(d3_set), drc="terminal", max_steps=60,
                    counting=EVALUATOR_COUNTING)
     try:
         pairs, rewards = [], []

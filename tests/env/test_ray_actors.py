@@ -12,7 +12,7 @@ import pytest
 from pcbdata.env.agents import ScriptedAgent
 from tests.processes import wait_for
 
-ENV_ID = "pcbdata/Route-d2-v1"
+ENV_ID = "pcbdata/Route-d2-v2"
 EPISODES = [("board_00000", 0), ("board_00001", 0), ("board_00002", 1), (None, 3)]
 
 
@@ -87,4 +87,4 @@ def test_a_bad_option_or_id_is_the_environment_s_error_on_the_driver(ray_cluster
     with pytest.raises(EnvOptionError, match="did you mean 'max_steps'"):
         make_actors(1, ENV_ID, max_stepz=3)
     with pytest.raises(gym.error.Error):
-        make_actors(1, "pcbdata/Route-d2x-v1")
+        make_actors(1, "pcbdata/Route-d2x-v2")
