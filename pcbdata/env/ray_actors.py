@@ -7,8 +7,10 @@
 
 - `EnvActor` (a Ray actor, one CPU, on whichever node Ray places it) holds one
   `gym.make(env_id, **options)` environment, hence one KiCad worker process, a child of the
-  actor's process that dies with it. Its methods (`reset`, `step`, `save`, `close`) return the
-  environment's own values: dicts of numpy arrays and plain Python data, which pickle.
+  actor's process that dies with it. Its methods (`reset`, `step`, `finish_episode`, `save`,
+  `close`) return the environment's own values: dicts of numpy arrays and plain Python data,
+  which pickle. An agent whose `done` turns True gets its episode ended by `finish_episode`
+  (the final DRC's correction as the last reward, not counted as a step).
 - `step_episodes` steps whole episodes on many actors at once from the driver, where the agent
   acts (as a learner's policy would): each actor takes the next episode when its last one
   ends, and each step is one round trip to the actor that holds the episode. The results are

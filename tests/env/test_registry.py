@@ -98,6 +98,14 @@ def test_the_router_budget_counts_work_by_default():
     assert make_options(router_seconds=2.0).router_seconds == 2.0
 
 
-def test_an_older_version_names_the_current_one():
-    with pytest.raises(gym.error.Error, match="pcbdata/Route-d2-v2"):
-        gym.make("pcbdata/Route-d2-v0")
+@pytest.mark.parametrize("old, current", [
+    ("pcbdata/Route-d2-v0", "pcbdata/Route-d2-v2"), ("pcbdata/Route-d2-v1", "pcbdata/Route-d2-v2"),
+    ("pcbdata/Route-d3-a-v1", "pcbdata/Route-d3-a-v2"),
+    ("pcbdata/RouteRL-d2-v1", "pcbdata/RouteRL-d2-v2"), ("pcbdata/Route-v1", "pcbdata/Route-v2"),
+])
+def test_an_older_version_names_the_current_one(old, current):
+    from pcbdata.env.registry import VERSION
+
+    assert VERSION == 2
+    with pytest.raises(gym.error.DeprecatedEnv, match=current):
+        gym.make(old)
