@@ -115,10 +115,12 @@ def check_options(env_id: str, options: dict[str, Any]) -> None:
     import gymnasium as gym
 
     import pcbdata.env  # noqa: F401 - registers the ids
+    from pcbdata.env.instances import resolve_config
     from pcbdata.env.options import make_options
 
     spec = gym.spec(env_id)
-    make_options(**{**spec.kwargs, **options})
+    checked = make_options(**{**spec.kwargs, **options})
+    resolve_config(checked.config, None if checked.rows is not None else checked.root)
 
 
 def close_actors(actors: Sequence[Any], timeout: float = 30.0) -> None:
