@@ -31,15 +31,12 @@ def _write_set(root: Path, limit: int) -> None:
 
 def _episodes(root: Path, config: str, drc: str, limit: int, mode: int, preload: str | None,
               runs: Path | None, seed: int = 0) -> dict:
-    import gymnasium as gym
-
-    import pcbdata.env  # noqa: F401
+    import pcbdata.env
     from pcbdata.env.agents import ScriptedAgent
     from pcbdata.env.rollout import run_episode
 
     engine_env = {"LD_PRELOAD": preload} if preload else None
-    env = gym.make(f"pcbdata/Route-{config}-v1", root=str(root), split="test", drc=drc,
-                   engine_env=engine_env)
+    env = pcbdata.env.make(root, config, split="test", drc=drc, engine_env=engine_env)
     env.reset(seed=0)  # the worker's start-up is not an episode's time
     times, steps, records = [], 0, []
     for board_id in env.unwrapped.source.board_ids[:limit]:

@@ -135,14 +135,14 @@ def actors(root: Path, cores: int, boards: int) -> dict:
     specs = [(f"board_{i:05d}", 0) for i in range(boards)]
     options = {"root": str(root), "split": "test"}
     idle = {"type": 0, "net": 0, "candidate": 0, "mode": 0}
-    env = gym.make("pcbdata/Route-d2-v1", **options)
+    env = gym.make("pcbdata/Route-d2-v2", **options)
     try:
         local, wall, cpu = timed(lambda: run_episodes(env, ScriptedAgent, specs))
         env.reset(seed=0, options={"index": 0})
         _, idle_local, _ = timed(lambda: [env.step(idle) for _ in range(IDLE_STEPS)])
     finally:
         env.close()
-    handles = make_actors(cores, "pcbdata/Route-d2-v1", **options)
+    handles = make_actors(cores, "pcbdata/Route-d2-v2", **options)
     try:
         ray.get([a.reset.remote(seed=0, options={"index": 0}) for a in handles])  # warm
         _, idle_actor, _ = timed(lambda: [ray.get(handles[0].step.remote(idle))

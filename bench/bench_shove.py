@@ -35,13 +35,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 
 def _episodes(root: Path, config: str, limit: int, shove: bool, runs: Path) -> dict:
-    import gymnasium as gym
-
-    import pcbdata.env  # noqa: F401
+    import pcbdata.env
     from pcbdata.env.agents import ScriptedAgent
     from pcbdata.env.types import FINISH, PUSH_N_SHOVE
 
-    env = gym.make(f"pcbdata/Route-{config}-v1", root=str(root), split="test", drc="terminal")
+    env = pcbdata.env.make(root, config, split="test", drc="terminal")
     tries, times = Counter(), []
     for board_id in env.unwrapped.source.board_ids[:limit]:
         agent, began = ScriptedAgent(seed=0, shove=shove), time.perf_counter()
@@ -49,6 +47,7 @@ def _episodes(root: Path, config: str, limit: int, shove: bool, runs: Path) -> d
         while True:
             act = agent.act(obs, info)
             if agent.done:
+                env.unwrapped.finish_episode()  # the final DRC, as every runner ends early
                 break
             obs, _, terminated, truncated, info = env.step(act)
             if act["type"] == FINISH and act["mode"] == PUSH_N_SHOVE:

@@ -75,7 +75,7 @@ def main() -> None:
     args = parser.parse_args()
 
     board_set = build_set(args.out, args.board + 1)
-    env = gym.make("pcbdata/Route-d2-v1", root=str(board_set), split="test",
+    env = gym.make("pcbdata/Route-d2-v2", root=str(board_set), split="test",
                    max_steps=args.max_steps, counting="evaluation")
     wrapper = LLMWrapper(env)
     key = os.environ.get("OPENAI_API_KEY")

@@ -4,7 +4,7 @@
     python examples/rllib_ppo.py --env-runners 4 --iterations 10 [--address HEAD_IP:6379]
 
 Each RLlib EnvRunner (a Ray actor, on whichever node Ray places it) makes its environment with
-`make_env` below: `gym.make("pcbdata/Route-d2-v1", ...)`, D2 boards generated on the fly (no
+`make_env` below: `gym.make("pcbdata/Route-d2-v2", ...)`, D2 boards generated on the fly (no
 built set needed), so each EnvRunner owns one KiCad worker process, started at its first
 reset. The learner trains on what the EnvRunners send back. See docs/ray.md ("RLlib").
 
@@ -35,7 +35,7 @@ import argparse
 import gymnasium as gym
 import numpy as np
 
-ENV_ID = "pcbdata/Route-d2-v1"
+ENV_ID = "pcbdata/Route-d2-v2"
 #: Options of every EnvRunner's environment (see docs/env.md): short episodes, KiCad's DRC only
 #: at the end of an episode (the cheaper setting for training), 1000 train boards.
 ENV_CONFIG = {"split": "train", "count": 1000, "max_steps": 64, "drc": "terminal"}
@@ -68,7 +68,7 @@ def make_env(env_config) -> gym.Env:
     (which registers the Gymnasium ids in that process) and makes the environment by its id.
     `env_config` is RLlib's EnvContext: a dict of `ENV_CONFIG` (plus worker_index and
     num_workers as attributes)."""
-    import pcbdata.env  # noqa: F401 - registers pcbdata/Route-*-v1 in this process
+    import pcbdata.env  # noqa: F401 - registers pcbdata/Route-*-v2 in this process
 
     return flat_env(gym.make(ENV_ID, **dict(env_config)))
 

@@ -199,3 +199,25 @@ def order_key(name: str) -> tuple:
     if family == "d3":
         return (2, 0, "", name)
     return (3, 0, "", name)
+
+
+def config_from_manifest(name: str, entry: dict, where: str = "the manifest") -> ConfigSpec:
+    """The config a built set records (its manifest's entry for `name`): family, parameters,
+    seed, version and split sizes as built, so a set's custom level (`d2-hard-custom-<hash>`)
+    or D1 placement is read back from what was built, never from its name."""
+    family = entry.get("family")
+    if family not in SEED_COUPLING:
+        raise UserError(f"{where}: config {name!r} has no known family ({family!r})")
+    parameters = dict(entry.get("parameters") or {})
+    splits = entry.get("splits") or {}
+    grid = parameters.get("grid") if family == "d1" else None
+    if family == "d1" and (not isinstance(grid, int) or grid < 2):
+        raise UserError(f"{where}: D1 config {name!r} records no grid size (parameters.grid)")
+    known = {"family", "set_version", "parameters", "seed", "seed_scheme", "splits", "tier"}
+    return ConfigSpec(name=name, family=family, version=str(entry.get("set_version", "")),
+                      splits=tuple(splits), description=str(entry.get("level_description", "")),
+                      seed=entry.get("seed"), grid=grid,
+                      placement=parameters.get("placement") if family == "d1" else None,
+                      level=entry.get("level"), tier=entry.get("tier"), parameters=parameters,
+                      sizes={s: int(v.get("count", 0)) for s, v in splits.items()},
+                      manifest={k: v for k, v in entry.items() if k not in known})

@@ -12,7 +12,9 @@ HELP = "run an agent (scripted, random or module:Class) in the routing environme
 
 def register(parser) -> None:
     parser.add_argument("dir", metavar="SET", help="a built board set")
-    parser.add_argument("--config", required=True, help="config name, e.g. d2, d1-g10, d3-a")
+    parser.add_argument("--config", required=True,
+                        help="any config the set holds, e.g. d2, d1-g10-random-walk, "
+                             "d2-hard-custom-<hash>, d3-a (read from its manifest)")
     parser.add_argument("--split", default="test", help="split name (default: test)")
     parser.add_argument("--agent", default="scripted",
                         help="scripted (default), scripted-shove (push_n_shove when walkaround "

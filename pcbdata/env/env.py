@@ -13,13 +13,12 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from pcbdata.configs import get_config
 from pcbdata.env import candidates as cand
 from pcbdata.env import masks, observation, routing
 from pcbdata.env.actions import action_space, parse_action
 from pcbdata.env.errors import BoardLoadError, EngineFailure, EnvValueError
-from pcbdata.env.instances import instance_files, make_source
-from pcbdata.env.options import make_options
+from pcbdata.env.instances import instance_files, make_source, resolve_config
+from pcbdata.env.options import make_options, with_capacities
 from pcbdata.env.render import RENDER_MODES, RENDER_SIZE, state_records
 from pcbdata.env.reward import Telescope, board_state, canonical, counted, unconnected_from_clusters
 from pcbdata.env.session import KicadSession
@@ -58,8 +57,11 @@ class RoutingEnv(gym.Env):
     timings: dict[str, Any]
 
     def __init__(self, **options):
-        self.options = o = make_options(**options)
-        self.config = get_config(o.config)
+        checked = make_options(**options)
+        # With a set, the config is what its manifest records (custom levels, placements).
+        self.config = resolve_config(checked.config, None if checked.rows is not None
+                                     else checked.root)
+        self.options = o = with_capacities(checked, self.config.family)
         self.source = make_source(self.config, o.root, o.split, o.rows, o.count)
         self.action_space = action_space(o.max_nets, o.max_candidates)
         self.observation_space = observation.observation_space(o)
@@ -319,12 +321,34 @@ class RoutingEnv(gym.Env):
             except EngineFailure as exc:
                 return self._engine_failed(str(exc))
             terminated, truncated = self._end_flags()
+        return self._transition(terminated, truncated, rejected, router)
+
+    def _transition(self, terminated: bool, truncated: bool, rejected, router, **extra):
         reward = self._telescope.reward(self._state["phi"], final=terminated or truncated)
         self._terminated, self._truncated = terminated, truncated
         self._ended = terminated or truncated
         self._refresh_masks()
-        return self._observation(), float(reward), terminated, truncated, \
-            self._info(rejected=rejected, router=router)
+        obs = self._observation()
+        return obs, float(reward), terminated, truncated, \
+            {**self._info(rejected=rejected, router=router), **extra}
+
+    def finish_episode(self):
+        """Ends the episode now (the agent has nothing left to do) and returns its last
+        transition (obs, reward, terminated, truncated, info), as `step` would: the final DRC
+        runs when the last one is stale (drc="terminal"), and the reward pays what is still
+        owed (the DRC's correction; with reward="terminal", the whole Phi(s_T) - Phi(s_0)), so
+        the episode's rewards sum to Phi(s_T) - Phi(s_0) of the board `save()` writes.
+        Truncated (terminated if nothing is left unconnected); no step is counted and the
+        board does not change. After the end, it changes nothing (reward 0)."""
+        if self._ended or self.static is None:
+            return self._after_end()
+        if not self._drc_fresh:
+            try:
+                self._final_drc()
+            except EngineFailure as exc:
+                return self._engine_failed(str(exc))
+        terminated = self._state["unconnected"] == 0
+        return self._transition(terminated, not terminated, None, None, finished_early=True)
 
     def _end_flags(self) -> tuple[bool, bool]:
         terminated = self._state["unconnected"] == 0

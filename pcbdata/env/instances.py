@@ -3,11 +3,13 @@ generator called on the fly. Each source lists board ids and writes one board's 
 (`board.kicad_pcb`, `board.kicad_pro`, maybe `board.kicad_dru`) into a folder on demand."""
 from __future__ import annotations
 
+import difflib
 import shutil
 from pathlib import Path
 
 from pcbdata.configs import ConfigSpec
 from pcbdata.errors import UserError
+from pcbdata.tree import MANIFEST_NAME
 
 BOARD_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
 
@@ -77,6 +79,41 @@ class GeneratorSource:
 
 def _split_size(spec: ConfigSpec, split: str) -> int:
     return int(spec.sizes[split])
+
+
+def resolve_config(name: str, root) -> ConfigSpec:
+    """The config `name` as the environment plays it: with a built set (`root`), what the set's
+    manifest records for it (any config the set holds: custom D2 levels, D1 placements, D3
+    tiers); without one, the registry's (`pcbdata.configs.get_config`). A set without a
+    manifest (boards written by hand) serves the registry's configs it has folders for."""
+    from pcbdata.configs import config_from_manifest, get_config
+
+    if root is None:
+        return get_config(name)
+    root = Path(root)
+    manifest = root / MANIFEST_NAME
+    if manifest.is_file():
+        from pcbdata.manifest import read_manifest
+
+        held = read_manifest(root).get("configs", {})
+        if name not in held:
+            raise UserError(_not_held(root, name, sorted(held)))
+        return config_from_manifest(name, held[name], str(manifest))
+    folders = sorted({board.parts[-4] for board in root.glob("*/*/*/board.kicad_pcb")})
+    if name not in folders:
+        raise UserError(_not_held(root, name, folders))
+    try:
+        return get_config(name)
+    except UserError:
+        raise UserError(f"{root}: no {MANIFEST_NAME} records the parameters of config "
+                        f"{name!r} (a set built by `pcbdata build` has one)") from None
+
+
+def _not_held(root: Path, name: str, held: list[str]) -> str:
+    close = difflib.get_close_matches(name, held, n=1, cutoff=0.4)
+    hint = f"; did you mean {close[0]!r}?" if close else ""
+    return (f"{root}: the set holds no config {name!r}{hint} (it holds: "
+            f"{', '.join(held) or 'none'})")
 
 
 def make_source(spec: ConfigSpec, root, split: str, rows, count: int | None):

@@ -25,8 +25,9 @@ from pcbdata.env import llm_text
 from pcbdata.env.llm_tools import DEFAULTS, PARAMETERS, Parsed, parse_reply, tool_schema
 from pcbdata.env.types import ACTION_TYPES, MODES
 
-#: A model returns this to end the episode early (neither terminated nor truncated), as a
-#: scripted agent does when it has nothing left to try.
+#: A model returns this to end the episode early, as a scripted agent does when it has nothing
+#: left to try: `run_episode` then calls `finish_episode()` (the final DRC's correction is the
+#: last reward; the episode is truncated).
 STOP = "<stop>"
 #: Characters of the text spaces (ASCII: net names are written with \\u escapes).
 CHARSET = string.printable
@@ -177,6 +178,15 @@ class LLMWrapper(gym.Wrapper, RecordConstructorArgs):
         info = dict(info, llm={"call": parsed.call, "reason": reason, "outcome": outcome})
         return text, reward, terminated, truncated, info
 
+    def finish_episode(self):
+        """Ends the episode early (`RoutingEnv.finish_episode`); the text observation of its
+        last transition. Not a reply: nothing is added to `records` or the history."""
+        ended = self.env.unwrapped.finish_episode()  # type: ignore[attr-defined]
+        obs, reward, terminated, truncated, info = ended
+        text = self._remember(obs, info)
+        return text, reward, terminated, truncated, dict(info, llm={"call": "", "reason": None,
+                                                                    "outcome": "finished"})
+
     def _note(self, step: int, reply, parsed: Parsed, outcome: str, reward: float) -> None:
         shown = parsed.call or f"<bad reply: {reply_text(reply, parsed, 60)}>"
         gain = f" (reward {reward:+.3f})" if outcome == "ok" and reward else ""
@@ -218,19 +228,21 @@ class LLMWrapper(gym.Wrapper, RecordConstructorArgs):
 def run_episode(env: gym.Env, model, *, seed: int | None = None, options: dict | None = None,
                 max_replies: int | None = None, **wrapper_options) -> EpisodeResult:
     """An episode driven by `reply = model(messages, tools)`, from reset until it terminates,
-    is truncated, the model returns `STOP` or `max_replies` replies were used. `env` is a
-    routing environment or an `LLMWrapper` around one; `wrapper_options` go to the wrapper."""
+    is truncated, the model returns `STOP` or `max_replies` replies were used (in those two
+    cases the episode is ended with `finish_episode()`, whose reward is in `total_reward`).
+    `env` is a routing environment or an `LLMWrapper` around one; `wrapper_options` go to the
+    wrapper."""
     wrapper = env if isinstance(env, LLMWrapper) else LLMWrapper(env, **wrapper_options)
     _, info = wrapper.reset(seed=seed, options=options)
     total, terminated, truncated, stopped = 0.0, False, False, False
     while not (terminated or truncated):
-        if max_replies is not None and len(wrapper.records) >= max_replies:
-            break
-        reply = model(wrapper.messages(), wrapper.tools)
-        if isinstance(reply, str) and reply == STOP:
-            stopped = True
-            break
-        _, reward, terminated, truncated, info = wrapper.step(reply)
+        out = max_replies is not None and len(wrapper.records) >= max_replies
+        reply = STOP if out else model(wrapper.messages(), wrapper.tools)
+        stopped = not out and isinstance(reply, str) and reply == STOP
+        if out or stopped:  # the final DRC ends the episode
+            _, reward, terminated, truncated, info = wrapper.finish_episode()
+        else:
+            _, reward, terminated, truncated, info = wrapper.step(reply)
         total += float(reward)
     return EpisodeResult(board_id=info["board_id"], total_reward=total,
                          steps=len(wrapper.records), terminated=terminated, truncated=truncated,

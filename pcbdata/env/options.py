@@ -53,16 +53,15 @@ class EnvOptions:
     fast_drc: bool = True  # False: the worker runs without pcbdata.kicad.fastwait's preload
     render_mode: str | None = None
 
-    def family(self) -> str:
-        return self.config.split("-", 1)[0]
-
 
 CHOICES = {"reward": ("step", "terminal"), "counting": ("strict", "evaluation"),
            "drc": ("step", "terminal"), "split": ("train", "validation", "test", "full")}
 
 
 def make_options(**given) -> EnvOptions:
-    """EnvOptions from keywords; unknown names and bad choices raise with the closest name."""
+    """EnvOptions from keywords; unknown names and bad choices raise with the closest name.
+    Capacities left at 0 stay 0 here: `with_capacities` fills them once the config's family is
+    known (from the set's manifest or the registry, not from the config's name)."""
     known = [f.name for f in fields(EnvOptions)]
     for name in given:
         if name not in known:
@@ -85,7 +84,12 @@ def make_options(**given) -> EnvOptions:
     if options.max_steps < 1 or options.max_candidates < 9:
         raise EnvValueError("max_steps must be >= 1 and max_candidates >= 9 (8 ring slots + 1)")
     _check_router_budget(options)
-    caps = CAPACITIES.get(options.family(), CAPACITIES["d3"])
+    return options
+
+
+def with_capacities(options: EnvOptions, family: str) -> EnvOptions:
+    """`options` with every capacity left at 0 set to the family's (`CAPACITIES`)."""
+    caps = CAPACITIES[family]
     unset: dict[str, Any] = {k: v for k, v in caps.items() if getattr(options, k) == 0}
     return replace(options, **unset)
 

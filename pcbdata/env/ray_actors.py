@@ -1,14 +1,16 @@
 """The routing environment on a Ray cluster: environment workers as Ray actors.
 
-    actors = make_actors(4, "pcbdata/Route-d2-v1", root="/shared/d2", split="test")
+    actors = make_actors(4, "pcbdata/Route-d2-v2", root="/shared/d2", split="test")
     episodes = step_episodes(actors, lambda seed: ScriptedAgent(seed=seed),
                              [("board_00000", 0), ("board_00001", 0), ...])
     close_actors(actors)
 
 - `EnvActor` (a Ray actor, one CPU, on whichever node Ray places it) holds one
   `gym.make(env_id, **options)` environment, hence one KiCad worker process, a child of the
-  actor's process that dies with it. Its methods (`reset`, `step`, `save`, `close`) return the
-  environment's own values: dicts of numpy arrays and plain Python data, which pickle.
+  actor's process that dies with it. Its methods (`reset`, `step`, `finish_episode`, `save`,
+  `close`) return the environment's own values: dicts of numpy arrays and plain Python data,
+  which pickle. An agent whose `done` turns True gets its episode ended by `finish_episode`
+  (the final DRC's correction as the last reward, not counted as a step).
 - `step_episodes` steps whole episodes on many actors at once from the driver, where the agent
   acts (as a learner's policy would): each actor takes the next episode when its last one
   ends, and each step is one round trip to the actor that holds the episode. The results are
@@ -38,6 +40,8 @@ from pcbdata.errors import EngineError
 
 #: (board_id or None for the environment's seeded pick, seed) of one episode.
 EpisodeSpec = tuple[str | None, int]
+#: What `_Run` asks for when its agent is done: the environment's `finish_episode()`.
+FINISH = "finish_episode"
 
 
 class EnvActorError(EngineError):
@@ -61,6 +65,11 @@ class EnvActor:
 
     def step(self, action) -> tuple[dict, float, bool, bool, dict]:
         obs, reward, terminated, truncated, info = self.env.step(action)
+        return obs, float(reward), bool(terminated), bool(truncated), info
+
+    def finish_episode(self) -> tuple[dict, float, bool, bool, dict]:
+        """Ends the episode early (`RoutingEnv.finish_episode`): its last transition."""
+        obs, reward, terminated, truncated, info = self.env.unwrapped.finish_episode()
         return obs, float(reward), bool(terminated), bool(truncated), info
 
     def save(self, path: str) -> str:
@@ -106,10 +115,12 @@ def check_options(env_id: str, options: dict[str, Any]) -> None:
     import gymnasium as gym
 
     import pcbdata.env  # noqa: F401 - registers the ids
+    from pcbdata.env.instances import resolve_config
     from pcbdata.env.options import make_options
 
     spec = gym.spec(env_id)
-    make_options(**{**spec.kwargs, **options})
+    checked = make_options(**{**spec.kwargs, **options})
+    resolve_config(checked.config, None if checked.rows is not None else checked.root)
 
 
 def close_actors(actors: Sequence[Any], timeout: float = 30.0) -> None:
@@ -164,8 +175,9 @@ def observation_digest(obs) -> str:
 
 class _Run:
     """One episode in progress: turns each (obs, ...) the environment returns into the next
-    action, or None when the episode is over (as `pcbdata.env.rollout.run_episode` decides:
-    terminated, truncated, or an agent whose `done` turns True)."""
+    action, `FINISH` when the agent's `done` turns True (the episode is ended with
+    `finish_episode()`, as `pcbdata.env.rollout.run_episode` does), or None when the episode
+    is over (terminated or truncated)."""
 
     def __init__(self, index: int, spec: EpisodeSpec, agent):
         self.index, self.agent = index, agent
@@ -179,12 +191,19 @@ class _Run:
         self.record = Episode(board_id=info["board_id"], seed=self.seed)
         return self._next(obs, info, False, False)
 
-    def stepped(self, obs, reward: float, terminated: bool, truncated: bool, info) -> Any:
+    def stepped(self, obs, reward: float, terminated: bool, truncated: bool, info,
+                counted: bool = True) -> Any:
+        """After a step (or, not `counted` as a step, after `finish_episode()`)."""
         record = self.episode()
-        record.steps += 1
+        record.steps += int(counted)
         record.rewards.append(float(reward))
         record.reward += float(reward)
         return self._next(obs, info, terminated, truncated)
+
+    def finished(self, transition) -> Any:
+        """After `finish_episode()`: its transition, not counted as a step."""
+        obs, reward, terminated, truncated, info = transition
+        return self.stepped(obs, reward, terminated, truncated, info, counted=False)
 
     def _next(self, obs, info, terminated: bool, truncated: bool) -> Any:
         record = self.episode()
@@ -195,7 +214,7 @@ class _Run:
         if terminated or truncated:
             return None
         act = self.agent.act(obs, info)
-        return None if getattr(self.agent, "done", False) else act
+        return FINISH if getattr(self.agent, "done", False) else act
 
     def episode(self) -> Episode:
         assert self.record is not None, "started() comes first"
@@ -217,7 +236,10 @@ def run_episodes(env, agent_factory: Callable[[int], Any], episodes: Iterable[Ep
         seed, options = run.reset_args()
         act = run.started(*env.reset(seed=seed, options=options))
         while act is not None:
-            act = run.stepped(*env.step(act))
+            if act is FINISH:
+                act = run.finished(env.unwrapped.finish_episode())
+            else:
+                act = run.stepped(*env.step(act))
         path = run.save_path(save_dir)
         if path is not None:
             run.episode().saved = env.unwrapped.save(path)
@@ -248,11 +270,10 @@ def step_episodes(actors: Sequence[Any], agent_factory: Callable[[int], Any],
         for ref in ready:
             actor, run, asked = running.pop(ref)
             value = _get(ray, ref, actor, run, asked)
-            if asked == "save":
-                run.episode().saved = value
-                act = None
-            else:
-                act = run.started(*value) if asked == "reset" else run.stepped(*value)
+            act = _after(run, asked, value)
+            if act is FINISH:
+                running[actors[actor].finish_episode.remote()] = (actor, run, "finish")
+                continue
             if act is not None:
                 running[actors[actor].step.remote(act)] = (actor, run, "step")
                 continue
@@ -263,6 +284,16 @@ def step_episodes(actors: Sequence[Any], agent_factory: Callable[[int], Any],
             results[run.index] = run.episode()
             idle.append(actor)
     return [results[i] for i in sorted(results)]
+
+
+def _after(run: _Run, asked: str, value) -> Any:
+    """The next request of `run` once the actor answered `asked` with `value`."""
+    if asked == "save":
+        run.episode().saved = value
+        return None
+    if asked == "reset":
+        return run.started(*value)
+    return run.stepped(*value) if asked == "step" else run.finished(value)
 
 
 def _get(ray, ref, actor: int, run: _Run, asked: str):

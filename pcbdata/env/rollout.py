@@ -46,13 +46,17 @@ def make_agent(spec: str, seed: int):
 
 
 def run_episode(env, agent, board_id: str, seed: int) -> dict:
-    """One episode from reset to its end (or until a scripted agent has nothing left to do)."""
+    """One episode from reset to its end. An agent whose `done` turns True (nothing left to
+    do) ends it with `finish_episode()`: its last reward carries the final DRC's correction, so
+    the summed reward is Phi of the saved board minus Phi of the bare one."""
     began = time.perf_counter()
     obs, info = env.reset(seed=seed, options={"board_id": board_id})
     total, steps, terminated, truncated = 0.0, 0, False, False
     while not (terminated or truncated):
         act = agent.act(obs, info)
         if getattr(agent, "done", False):
+            obs, reward, terminated, truncated, info = env.unwrapped.finish_episode()
+            total += reward
             break
         obs, reward, terminated, truncated, info = env.step(act)
         total += reward
@@ -107,7 +111,7 @@ def rollout_task(env_kwargs: dict, agent_spec: str, board_id: str, rollout: int,
         os.replace(tmp, folder / f"{rollout}.kicad_pcb")
     except Exception as exc:  # noqa: BLE001 - a dead engine: the rollout has no board
         record["save_error"] = str(exc)
-    record.update(agent=agent_spec, env_id=env_kwargs["id"])
+    record.update(agent=agent_spec, env_id=env_kwargs["id"], config=env_kwargs["config"])
     _write_atomic(folder / f"{rollout}.json", json.dumps(record, indent=1, sort_keys=True))
     return record
 
@@ -129,20 +133,18 @@ def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, 
     `workers` of them; a Ray executor uses every CPU of its cluster); returns a summary.
     Progress lines go to `log`. `root` and `out` are made absolute here: on a Ray cluster they
     must be the same path on every node (a shared filesystem)."""
-    from pcbdata.configs import get_config
-    from pcbdata.env.registry import env_id, register_all
+    from pcbdata.env.instances import resolve_config
+    from pcbdata.env.registry import env_id_for
     from pcbdata.evaluator.runs import list_instances
     from pcbdata.executors import resolve
 
-    get_config(config)  # an unknown config is a UserError naming the closest one
-    if env_id(config) not in register_all():
-        raise UserError(f"config {config!r} has no environment id: the ids are one per "
-                        f"config of the registry (e.g. {env_id('d2')})")
-    make_agent(agent, 0)  # a bad --agent fails before any work
     root, out = Path(root).resolve(), Path(out).resolve()
+    resolve_config(config, root)  # any config the set holds; else a UserError naming them
+    make_agent(agent, 0)  # a bad --agent fails before any work
     board_ids = [b for b, _ in list_instances(root, config, split)][:limit]
     todo = pending(board_ids, rollouts, out)
-    env_kwargs = {"id": env_id(config), "root": str(root), "split": split, **(env_options or {})}
+    env_kwargs = {"id": env_id_for(config), "config": config, "root": str(root),
+                  "split": split, **(env_options or {})}
     began, records, failed = time.perf_counter(), [], 0
     tasks = [(env_kwargs, agent, b, r, str(out)) for b, r in todo]
     with resolve(executor).pool(workers=max(1, min(workers, len(todo) or 1)),

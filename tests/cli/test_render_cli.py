@@ -140,7 +140,7 @@ def test_drc_markers_on_a_board_with_crossing_tracks(routed, tmp_path):
     from tests.env.test_render import straight_lines_until_violation
 
     folder = tmp_path / "boards" / "board_00000"
-    env = gym.make("pcbdata/Route-d2-v1", root=str(routed["set"]))
+    env = gym.make("pcbdata/Route-d2-v2", root=str(routed["set"]))
     try:
         _, info = env.reset(options={"index": 0})
         straight_lines_until_violation(env, info)  # net 3 crosses net 1

@@ -38,3 +38,19 @@ class KillsItsRayWorkerOnce:
             os.kill(os.getppid(), signal.SIGKILL)
             time.sleep(60)  # the worker dies with its parent (PR_SET_PDEATHSIG)
         return self.scripted.act(obs, info)
+
+
+class StopsEarly:
+    """`agent`, but done after `after` actions (or when `agent` is): an agent that ends its
+    episode early, leaving whatever it drew (a random agent's dangling tracks and vias)."""
+
+    def __init__(self, agent, after: int):
+        self.agent, self.after, self.acted = agent, after, 0
+
+    @property
+    def done(self) -> bool:
+        return bool(getattr(self.agent, "done", False)) or self.acted > self.after
+
+    def act(self, obs, info):
+        self.acted += 1
+        return self.agent.act(obs, info)

@@ -56,7 +56,7 @@ def make_env(board_set):
 
     def factory(config: str = "d2", **options):
         options.setdefault("root", str(board_set))
-        env = gym.make(f"pcbdata/Route-{config}-v1", **options)
+        env = gym.make(f"pcbdata/Route-{config}-v2", **options)
         made.append(env)
         return env
 

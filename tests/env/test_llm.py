@@ -308,8 +308,9 @@ def test_wrapper_spaces_and_early_stop(make_env):
     assert [m["role"] for m in wrapper.messages()] == ["system", "user"]  # turns=0: none kept
     stopped = run_episode(wrapper, lambda messages, tools: STOP, seed=0, options={"index": 0})
     assert stopped.stopped and stopped.steps == 0 and not stopped.terminated
+    assert stopped.truncated and stopped.total_reward == 0.0  # finish_episode: nothing drawn
     capped = run_episode(env, lambda messages, tools: "net_end()", max_replies=3, seed=0)
-    assert capped.steps == 3 and not capped.stopped
+    assert capped.steps == 3 and not capped.stopped and capped.truncated
     assert all(r.outcome.startswith("rejected") for r in capped.records)
 
 

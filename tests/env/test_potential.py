@@ -9,7 +9,8 @@ import pytest
 from pcbdata.env.agents import RandomAgent, ScriptedAgent
 from pcbdata.env.reward import EVALUATOR_COUNTING, Telescope
 from pcbdata.env.rollout import run_episode
-from pcbdata.env.types import MARK_OBSTACLES, WALKAROUND
+from pcbdata.env.types import MARK_OBSTACLES, NET_SELECT, WALKAROUND
+from tests.env.agents_for_tests import StopsEarly
 
 
 def test_telescope_sums_to_the_potential_gain():
@@ -44,14 +45,10 @@ def _episodes(board_set, make_env, walkaround: bool):
 
 
 def _until_end(env, agent, board_id: str, seed: int) -> dict:
-    """An episode to its end (termination or the step limit), so that drc="terminal" has run
-    its final DRC."""
+    """An episode to its end: `run_episode` ends an agent that is done with
+    `finish_episode()`, so drc="terminal" has run its final DRC."""
     record = run_episode(env, agent, board_id, seed)
-    if not (record["terminated"] or record["truncated"]) and env.unwrapped._drc_fresh is False:
-        terminated = truncated = False
-        while not (terminated or truncated):
-            _, reward, terminated, truncated, _ = env.step({"type": 0})
-            record["reward"] += reward
+    assert record["terminated"] or record["truncated"]
     return record
 
 
@@ -111,7 +108,7 @@ def test_d3_summed_reward_equals_pot(d3_set, kicad_pool, tmp_path):
 
     if not any((d3_set / "d3-a" / "test").glob("*/board.kicad_pcb")):
         pytest.skip("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
-    env = gym.make("pcbdata/Route-d3-a-v1", root=str(d3_set), drc="terminal", max_steps=60,
+    env = gym.make("pcbdata/Route-d3-a-v2", root=str(d3_set), drc="terminal", max_steps=60,
                    counting=EVALUATOR_COUNTING)
     try:
         pairs, rewards = [], []
@@ -127,3 +124,93 @@ def test_d3_summed_reward_equals_pot(d3_set, kicad_pool, tmp_path):
         for index, result in evaluator.score_many(pairs):
             assert result["status"] == "ok", result["reason"]
             assert math.isclose(result["pot"], rewards[index], abs_tol=1e-9), pairs[index]
+
+
+def _stopping_agents(seed: int) -> list:
+    """Agents that end their episode early: scripted (finish in walkaround mode) and random
+    (dangling tracks and vias, shorts: what only the final DRC sees with drc="terminal")."""
+    return [StopsEarly(ScriptedAgent(seed=seed), 9), StopsEarly(RandomAgent(seed=seed), 25)]
+
+
+def _early_episodes(env, board_ids, folder, saved_dir) -> list[tuple]:
+    """(instance, saved board, record) of every stopping agent on every board."""
+    out = []
+    for index, board_id in enumerate(board_ids):
+        for n, agent in enumerate(_stopping_agents(index)):
+            record = run_episode(env, agent, board_id, index)
+            assert record["truncated"] and not record["terminated"], record
+            drc = env.unwrapped.options.drc
+            saved = saved_dir / f"{drc}-{board_id}-{n}.kicad_pcb"
+            env.unwrapped.save(saved)
+            out.append((folder / board_id, saved, record))
+    return out
+
+
+def _assert_pot_strict(kicad_pool, episodes) -> None:
+    """Each summed reward equals pot_strict of its saved board (the evaluator's Phi(final) -
+    Phi(bare) under the strict count, the environment's default), and some boards carry
+    violations, so the final DRC's correction is exercised."""
+    from pcbdata.evaluator import Evaluator
+
+    with Evaluator(pool=kicad_pool) as evaluator:
+        scored = dict(evaluator.score_many([(inst, saved) for inst, saved, _ in episodes]))
+    assert len(scored) == len(episodes)
+    for index, (_, saved, record) in enumerate(episodes):
+        result = scored[index]
+        assert result["status"] == "ok", (saved, result["reason"])
+        assert math.isclose(result["pot_strict"], record["reward"], rel_tol=0, abs_tol=1e-9), \
+            (saved, result["pot_strict"], record["reward"])
+    assert sum(scored[i]["drv_strict"] > 0 for i in scored) >= 2
+
+
+def test_an_early_end_pays_the_final_drc_d2(board_set, make_env, kicad_pool, tmp_path):
+    """Default options (strict counting), DRC every step and at the end: the rewards of an
+    episode its agent ends early sum to pot_strict of the saved board, and both DRC options
+    give the same sum."""
+    episodes = []
+    for drc in ("step", "terminal"):
+        env = make_env("d2", drc=drc)
+        episodes += _early_episodes(env, [f"board_{i:05d}" for i in range(4)],
+                                    board_set / "d2" / "test", tmp_path)
+    _assert_pot_strict(kicad_pool, episodes)
+    half = len(episodes) // 2
+    for (_, _, step), (_, _, terminal) in zip(episodes[:half], episodes[half:], strict=True):
+        assert step["reward"] == pytest.approx(terminal["reward"], abs=1e-9)
+
+
+def test_an_early_end_pays_the_final_drc_d3(d3_set, kicad_pool, tmp_path):
+    """The same on real boards (D3-A, the two smallest test boards): the via_dangling /
+    track_dangling an early end leaves is in the last reward."""
+    import gymnasium as gym
+
+    if not any((d3_set / "d3-a" / "test").glob("*/board.kicad_pcb")):
+        pytest.skip("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
+    episodes = []
+    for drc in ("step", "terminal"):
+        env = gym.make("pcbdata/Route-d3-a-v2", root=str(d3_set), drc=drc)
+        try:
+            board_ids = env.unwrapped.source.board_ids[:2]
+            episodes += _early_episodes(env, board_ids, d3_set / "d3-a" / "test", tmp_path)
+        finally:
+            env.close()
+    _assert_pot_strict(kicad_pool, episodes)
+
+
+def test_finish_episode_ends_once_and_pays_what_is_owed(make_env):
+    """reward="terminal" pays nothing until the end: finish_episode pays Phi(s_T) - Phi(s_0)
+    whole, truncates, counts no step; afterwards it and step() change nothing."""
+    env = make_env("d2", reward="terminal", drc="terminal")
+    u = env.unwrapped
+    obs, info = env.reset(seed=0, options={"index": 0})
+    phi0, agent = info["phi"], ScriptedAgent(seed=0)
+    for _ in range(8):
+        obs, reward, terminated, truncated, info = env.step(agent.act(obs, info))
+        assert reward == 0.0 and not (terminated or truncated)
+    obs, reward, terminated, truncated, info = u.finish_episode()
+    assert (terminated, truncated, info["step"], info["finished_early"]) == (False, True, 8, True)
+    assert info["drc_fresh"] and reward == pytest.approx(info["phi"] - phi0, abs=1e-12)
+    assert reward != 0.0
+    again = u.finish_episode()
+    assert again[1:4] == (0.0, False, True) and "ended" in again[4]["rejected"]
+    stepped = env.step({"type": NET_SELECT, "net": 0, "candidate": 0, "mode": 0})
+    assert stepped[1] == 0.0 and "ended" in stepped[4]["rejected"]

@@ -10,10 +10,16 @@ import re
 import pytest
 
 from pcbdata.env.agents import ScriptedAgent
+from tests.env.agents_for_tests import StopsEarly
 from tests.processes import wait_for
 
-ENV_ID = "pcbdata/Route-d2-v1"
+ENV_ID = "pcbdata/Route-d2-v2"
 EPISODES = [("board_00000", 0), ("board_00001", 0), ("board_00002", 1), (None, 3)]
+
+
+def _agent(seed: int):
+    """Scripted; seed 1's stops after 6 steps, so its episode ends by `finish_episode`."""
+    return StopsEarly(ScriptedAgent(seed=seed), 6) if seed == 1 else ScriptedAgent(seed=seed)
 
 
 def _alive(pids: list[int]) -> list[int]:
@@ -32,17 +38,19 @@ def test_episodes_on_two_actors_are_the_local_episodes(ray_cluster, board_set, m
     from pcbdata.env.ray_actors import close_actors, make_actors, run_episodes, step_episodes
 
     options = {"root": str(board_set), "split": "test", "max_steps": 30}
-    local = run_episodes(make_env("d2", max_steps=30), lambda seed: ScriptedAgent(seed=seed),
-                         EPISODES, save_dir=str(tmp_path / "local"))
+    local = run_episodes(make_env("d2", max_steps=30), _agent, EPISODES,
+                         save_dir=str(tmp_path / "local"))
     actors = make_actors(2, ENV_ID, **options)
     try:
-        remote = step_episodes(actors, lambda seed: ScriptedAgent(seed=seed), EPISODES,
-                               save_dir=str(tmp_path / "ray"))
+        remote = step_episodes(actors, _agent, EPISODES, save_dir=str(tmp_path / "ray"))
         pids = _processes(ray_cluster, actors)
     finally:
         close_actors(actors)
     assert [e.board_id for e in remote][:3] == ["board_00000", "board_00001", "board_00002"]
-    assert all(e.steps > 3 and len(e.obs_digests) == e.steps + 1 for e in remote)
+    early = [e.seed == 1 for e in remote]
+    assert all(e.steps > 3 and len(e.obs_digests) == e.steps + 1 + stop
+               and len(e.rewards) == e.steps + stop for e, stop in zip(remote, early, strict=True))
+    assert [(e.steps, e.truncated) for e in remote if e.seed == 1] == [(6, True)]
     for mine, theirs in zip(remote, local, strict=True):
         assert (mine.obs_digests, mine.rewards) == (theirs.obs_digests, theirs.rewards)
         assert mine.saved != theirs.saved and mine.saved is not None and theirs.saved
@@ -87,4 +95,4 @@ def test_a_bad_option_or_id_is_the_environment_s_error_on_the_driver(ray_cluster
     with pytest.raises(EnvOptionError, match="did you mean 'max_steps'"):
         make_actors(1, ENV_ID, max_stepz=3)
     with pytest.raises(gym.error.Error):
-        make_actors(1, "pcbdata/Route-d2x-v1")
+        make_actors(1, "pcbdata/Route-d2x-v2")

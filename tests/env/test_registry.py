@@ -16,9 +16,9 @@ IDS = [env_id(name) for name in registry()]
 
 def test_one_id_per_config():
     assert set(IDS) <= set(gym.registry)
-    assert env_id("d2") == "pcbdata/Route-d2-v1"
-    assert {"pcbdata/Route-d2-hard-v1", "pcbdata/Route-d1-g10-v1",
-            "pcbdata/Route-d3-a-v1"} <= set(IDS)
+    assert env_id("d2") == "pcbdata/Route-d2-v2"
+    assert {"pcbdata/Route-d2-hard-v2", "pcbdata/Route-d1-g10-v2",
+            "pcbdata/Route-d3-a-v2"} <= set(IDS)
 
 
 @pytest.mark.parametrize("ident", IDS)
@@ -68,17 +68,17 @@ def _random_steps(env, steps: int) -> None:
 
 def test_wrong_id_suggests_the_closest():
     with pytest.raises(gym.error.Error, match="Route-d2"):
-        gym.make("pcbdata/Route-d22-v1")
+        gym.make("pcbdata/Route-d22-v2")
 
 
 def test_unknown_option_suggests_the_closest():
     with pytest.raises(TypeError, match="did you mean 'max_steps'"):
-        gym.make("pcbdata/Route-d2-v1", max_step=10)
+        gym.make("pcbdata/Route-d2-v2", max_step=10)
 
 
 def test_bad_choice_suggests_the_closest():
     with pytest.raises(ValueError, match="did you mean 'terminal'"):
-        gym.make("pcbdata/Route-d2-v1", drc="terminl")
+        gym.make("pcbdata/Route-d2-v2", drc="terminl")
 
 
 @pytest.mark.parametrize("option, value", [
@@ -87,7 +87,7 @@ def test_bad_choice_suggests_the_closest():
 ])
 def test_a_bad_router_budget_is_refused_by_name(option, value):
     with pytest.raises(ValueError, match=option):
-        gym.make("pcbdata/Route-d2-v1", **{option: value})
+        gym.make("pcbdata/Route-d2-v2", **{option: value})
 
 
 def test_the_router_budget_counts_work_by_default():
@@ -98,6 +98,14 @@ def test_the_router_budget_counts_work_by_default():
     assert make_options(router_seconds=2.0).router_seconds == 2.0
 
 
-def test_an_older_version_names_the_current_one():
-    with pytest.raises(gym.error.Error, match="pcbdata/Route-d2-v1"):
-        gym.make("pcbdata/Route-d2-v0")
+@pytest.mark.parametrize("old, current", [
+    ("pcbdata/Route-d2-v0", "pcbdata/Route-d2-v2"), ("pcbdata/Route-d2-v1", "pcbdata/Route-d2-v2"),
+    ("pcbdata/Route-d3-a-v1", "pcbdata/Route-d3-a-v2"),
+    ("pcbdata/RouteRL-d2-v1", "pcbdata/RouteRL-d2-v2"), ("pcbdata/Route-v1", "pcbdata/Route-v2"),
+])
+def test_an_older_version_names_the_current_one(old, current):
+    from pcbdata.env.registry import VERSION
+
+    assert VERSION == 2
+    with pytest.raises(gym.error.DeprecatedEnv, match=current):
+        gym.make(old)

@@ -285,7 +285,7 @@ def _same(a: dict, b: dict) -> None:
 def test_check_env_passes(board_set, config):
     """On the registered RL id as gym.make returns it (the one warning ignored is check_env's
     note that the wrapper is not the unwrapped environment)."""
-    env = gym.make(f"pcbdata/RouteRL-{config}-v1", root=str(board_set))
+    env = gym.make(f"pcbdata/RouteRL-{config}-v2", root=str(board_set))
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error")
@@ -320,7 +320,7 @@ def test_seeded_runs_are_identical(rl_env):
 
 
 def test_registered_ids(board_set):
-    env = gym.make("pcbdata/RouteRL-d2-v1", root=str(board_set))
+    env = gym.make("pcbdata/RouteRL-d2-v2", root=str(board_set))
     try:
         obs, info = env.reset(seed=0)
         flat = env.get_wrapper_attr("action_masks")()

@@ -47,7 +47,8 @@ def test_a_rollout_whose_worker_dies_is_reported_and_left_pending(board_set, tmp
     assert not (runs / "board_00000" / "0.json").exists()  # pending: the next run retries it
 
 
-def test_rollout_unknown_config_names_the_closest(board_set, tmp_path, capsys):
+def test_rollout_unknown_config_names_the_configs_of_the_set(board_set, tmp_path, capsys):
     argv = ["rollout", str(board_set), "--config", "d2-hardd", "--out", str(tmp_path / "r")]
     assert main(argv) == 2
-    assert "did you mean 'd2-hard'" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "did you mean 'd2'" in err and "it holds: d1-g10, d2" in err

@@ -40,7 +40,7 @@ def _make(root):
     import gymnasium as gym
 
     import pcbdata.env  # noqa: F401
-    return gym.make("pcbdata/Route-d2-expert-v1", root=str(root), split="test")
+    return gym.make("pcbdata/Route-d2-expert-v2", root=str(root), split="test")
 
 
 def _episode(env, board_id: str):

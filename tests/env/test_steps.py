@@ -216,7 +216,7 @@ def test_each_instance_keeps_its_own_rules(tmp_path, board_set):
         project = folder / "board.kicad_pro"
         text = project.read_text().replace('"clearance": 0.3', f'"clearance": {clearance}')
         project.write_text(text)
-    env = gym.make("pcbdata/Route-d2-v1", root=str(tmp_path))
+    env = gym.make("pcbdata/Route-d2-v2", root=str(tmp_path))
     try:
         seen = []
         for board_id in ("board_00000", "board_00001", "board_00000"):
@@ -239,7 +239,7 @@ def test_a_board_that_does_not_load_is_a_clear_error(tmp_path, board_set):
     bad = tmp_path / "d2" / "test" / "board_00001"
     shutil.copytree(good, bad)
     (bad / "board.kicad_pcb").write_text("(kicad_pcb (version 20240108) (garbage")
-    env = gym.make("pcbdata/Route-d2-v1", root=str(tmp_path))
+    env = gym.make("pcbdata/Route-d2-v2", root=str(tmp_path))
     try:
         with pytest.raises(BoardLoadError, match="board_00001"):
             env.reset(options={"board_id": "board_00001"})
@@ -264,7 +264,7 @@ def test_copper_text_is_an_obstacle(tmp_path, board_set):
              '(uuid "91028994-e5d7-40f6-82ad-82470d61bbc7") '
              '(effects (font (size 1.5 1.5) (thickness 0.3))))\n')
     board.write_text(text[: text.rstrip().rfind(")")] + label + ")\n")
-    env = gym.make("pcbdata/Route-d2-v1", root=str(tmp_path))
+    env = gym.make("pcbdata/Route-d2-v2", root=str(tmp_path))
     try:
         env.reset(options={"board_id": "board_00000"})
         graphics = env.unwrapped.static.graphics
