@@ -130,8 +130,11 @@ def drc_parity(paths: list, reruns: int = 6) -> dict:
 
 def seal_set(root: Path) -> Path:
     """Writes the manifest of a hand-made set (`root/<config>/<split>/<board>/<files>`) as a
-    build would, listing every file on disk with its sha256, so the evaluator takes it as a
-    verified set (a test set whose boards are named in no release)."""
+    build would, listing every file on disk with its sha256, so the evaluator and the
+    environment take it as a verified set. A config the registry knows records its family,
+    version, seed and parameters; the others are `d2` boards under another name."""
+    from pcbdata.configs import get_config
+    from pcbdata.errors import UserError
     from pcbdata.hashing import sha256_file
     from pcbdata.manifest import FORMAT, write_manifest
 
@@ -139,7 +142,15 @@ def seal_set(root: Path) -> Path:
     for split_dir in sorted(p for p in Path(root).glob("*/*") if p.is_dir()):
         boards = {b.name: {"files": {f.name: sha256_file(f) for f in sorted(b.iterdir())}}
                   for b in sorted(split_dir.iterdir()) if b.is_dir()}
-        config = configs.setdefault(split_dir.parent.name, {"set_version": "test", "splits": {}})
-        config["splits"][split_dir.name] = {"boards": boards, "count": len(boards)}
+        name = split_dir.parent.name
+        if name not in configs:
+            try:
+                spec = get_config(name)
+                configs[name] = {"family": spec.family, "set_version": spec.version,
+                                 "seed": spec.seed, "parameters": spec.parameters,
+                                 **spec.manifest, "splits": {}}
+            except UserError:
+                configs[name] = {"family": "d2", "set_version": "test", "splits": {}}
+        configs[name]["splits"][split_dir.name] = {"boards": boards, "count": len(boards)}
     write_manifest(root, {"format": FORMAT, "package_version": "test", "configs": configs})
     return Path(root)

@@ -13,7 +13,7 @@ __all__ = ["COUNTINGS", "EVALUATOR_COUNTING", "Telescope", "board_state", "canon
            "unconnected_from_clusters"]
 
 #: The counting `pcbdata eval` reports Pot. under.
-EVALUATOR_COUNTING = "evaluation"
+EVALUATOR_COUNTING = "strict"
 
 
 def board_state(measurement: dict, weights: Weights, counting: str) -> dict:

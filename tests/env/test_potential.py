@@ -146,8 +146,8 @@ def _early_episodes(env, board_ids, folder, saved_dir) -> list[tuple]:
     return out
 
 
-def _assert_pot_strict(kicad_pool, episodes) -> None:
-    """Each summed reward equals pot_strict of its saved board (the evaluator's Phi(final) -
+def _assert_pot(kicad_pool, episodes) -> None:
+    """Each summed reward equals the Pot. of its saved board (the evaluator's Phi(final) -
     Phi(bare) under the strict count, the environment's default), and some boards carry
     violations, so the final DRC's correction is exercised."""
     from pcbdata.evaluator import Evaluator
@@ -158,21 +158,21 @@ def _assert_pot_strict(kicad_pool, episodes) -> None:
     for index, (_, saved, record) in enumerate(episodes):
         result = scored[index]
         assert result["status"] == "ok", (saved, result["reason"])
-        assert math.isclose(result["pot_strict"], record["reward"], rel_tol=0, abs_tol=1e-9), \
-            (saved, result["pot_strict"], record["reward"])
+        assert math.isclose(result["pot"], record["reward"], rel_tol=0, abs_tol=1e-9), \
+            (saved, result["pot"], record["reward"])
     assert sum(scored[i]["drv_strict"] > 0 for i in scored) >= 2
 
 
 def test_an_early_end_pays_the_final_drc_d2(board_set, make_env, kicad_pool, tmp_path):
     """Default options (strict counting), DRC every step and at the end: the rewards of an
-    episode its agent ends early sum to pot_strict of the saved board, and both DRC options
+    episode its agent ends early sum to the Pot. of the saved board, and both DRC options
     give the same sum."""
     episodes = []
     for drc in ("step", "terminal"):
         env = make_env("d2", drc=drc)
         episodes += _early_episodes(env, [f"board_{i:05d}" for i in range(4)],
                                     board_set / "d2" / "test", tmp_path)
-    _assert_pot_strict(kicad_pool, episodes)
+    _assert_pot(kicad_pool, episodes)
     half = len(episodes) // 2
     for (_, _, step), (_, _, terminal) in zip(episodes[:half], episodes[half:], strict=True):
         assert step["reward"] == pytest.approx(terminal["reward"], abs=1e-9)
@@ -193,7 +193,7 @@ def test_an_early_end_pays_the_final_drc_d3(d3_set, kicad_pool, tmp_path):
             episodes += _early_episodes(env, board_ids, d3_set / "d3-a" / "test", tmp_path)
         finally:
             env.close()
-    _assert_pot_strict(kicad_pool, episodes)
+    _assert_pot(kicad_pool, episodes)
 
 
 def test_finish_episode_ends_once_and_pays_what_is_owed(make_env):
