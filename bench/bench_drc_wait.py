@@ -53,7 +53,7 @@ def cli(*args: str) -> None:
 
 def tracked_d2(work: Path) -> list[str]:
     from pcbdata.generators import D2Generator
-    from pcbdata.presets import d2_level
+    from pcbdata.spec.presets import d2_level
 
     level = d2_level("default")
     generator = D2Generator(level.params)

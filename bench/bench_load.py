@@ -101,7 +101,7 @@ def main() -> int:
                        check=True, capture_output=True)
         report["build_and_publish_s"] = time.perf_counter() - t
     sys.path.insert(0, str(REPO))
-    from pcbdata.manifest import read_manifest
+    from pcbdata.model.manifest import read_manifest
     from pcbdata.publish import publish_set
 
     t = time.perf_counter()

@@ -36,7 +36,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 def _episodes(root: Path, config: str, limit: int, shove: bool, runs: Path) -> dict:
     import pcbdata.env
-    from pcbdata.env.agents import ScriptedAgent
+    from pcbdata.agents.scripted import ScriptedAgent
     from pcbdata.env.types import FINISH, PUSH_N_SHOVE
 
     env = pcbdata.env.make(root, config, split="test", drc="terminal")
@@ -73,7 +73,7 @@ def _router_only(config: str, limit: int) -> dict:
     from pcbdata.router.shove import plan
     from pcbdata.router.walkaround import RouteRequest, WalkaroundRouter
     from pcbdata.generators import D2Generator
-    from pcbdata.presets import d2_level
+    from pcbdata.spec.presets import d2_level
     from tests.env import d2_routes
 
     level = d2_level(config.removeprefix("d2-") if config != "d2" else "default")

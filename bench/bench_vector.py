@@ -1,10 +1,10 @@
-"""Benchmark of vectorised RL use: steps per second of `pcbdata.env.rl.make_vector_env` (Gymnasium's
+"""Benchmark of vectorised RL use: steps per second of `pcbdata.env.wrappers.rl.make_vector_env` (Gymnasium's
 AsyncVectorEnv over spawned workers, one KiCad engine each) for 1, 2 and 4 environments, against
 one unwrapped environment stepped serially in this process (the baseline) and one wrapped
 environment in this process (the wrapper's own cost).
 
 A masked random policy (uniform over allowed types, then over that type's allowed index and
-mode: `pcbdata.env.rl.sample_action`, seed 0; the baseline and the one-environment runs take
+mode: `pcbdata.env.wrappers.rl.sample_action`, seed 0; the baseline and the one-environment runs take
 the same actions, so they play the same episodes), D2 boards generated on the fly, episodes of
 at most `--max-steps` steps (finished episodes reset inside the timed run, as in training), DRC
 after every copper change and DRC at the end only. Timing starts after the first reset (the
@@ -34,7 +34,7 @@ def _baseline(options: dict, steps: int) -> tuple[float, float]:
     actions are the wrapped runs' draws (`sample_action` on the joint masks made from the
     environment's own masks, same seed): the same episodes, so the difference is the cost."""
     from pcbdata.env.env import RoutingEnv
-    from pcbdata.env.rl import env_action, index_size, joint_masks, sample_action
+    from pcbdata.env.wrappers.rl import env_action, index_size, joint_masks, sample_action
 
     env = RoutingEnv(**options)
     k = index_size(env.options)
@@ -57,7 +57,7 @@ def _baseline(options: dict, steps: int) -> tuple[float, float]:
 def _wrapped(options: dict, steps: int) -> tuple[float, float]:
     """(Seconds, summed reward) of `steps` steps of one RLWrapper-wrapped environment in this
     process."""
-    from pcbdata.env.rl import make_rl_env, sample_action
+    from pcbdata.env.wrappers.rl import make_rl_env, sample_action
 
     env = make_rl_env(**options)
     rng = np.random.default_rng(0)
@@ -79,7 +79,7 @@ def _vector(options: dict, n: int, steps: int) -> tuple[float, float]:
     steps. Gymnasium resets a finished environment on its next step (its action is ignored):
     that step is not counted and draws no action, so one environment plays the baseline's
     episodes."""
-    from pcbdata.env.rl import make_vector_env, sample_action
+    from pcbdata.env.wrappers.rl import make_vector_env, sample_action
 
     options = dict(options)
     envs = make_vector_env(options.pop("config"), n, **options)

@@ -24,7 +24,7 @@ from _measure import machine  # noqa: E402
 
 from pcbdata.baselines.routing import route_set  # noqa: E402
 from pcbdata.cli import main as cli  # noqa: E402
-from pcbdata.configs import registry  # noqa: E402
+from pcbdata.spec.configs import registry  # noqa: E402
 from pcbdata.evaluator.runs import evaluate_set  # noqa: E402
 
 

@@ -1,4 +1,4 @@
-"""A tool-using language model routes one D2 board through `pcbdata.env.llm`, then
+"""A tool-using language model routes one D2 board through `pcbdata.env.llm.wrapper`, then
 `pcbdata eval` scores the saved board.
 
     export OPENAI_API_KEY=...                      # no key: the scripted stand-in plays
@@ -12,7 +12,7 @@ It builds a one-board D2 test set (`pcbdata build d2 --count`), runs one episode
 `tool_calls` or its text: the wrapper's parser reads either), saves the board as
 `OUT/runs/<board_id>/0.kicad_pcb` and runs `pcbdata eval` on it. Standard library only (no
 client package). Without `OPENAI_API_KEY` it says so and uses
-`pcbdata.env.llm_standin.ScriptedModel` (the scripted baseline speaking the same text
+`pcbdata.agents.llm_standin.ScriptedModel` (the scripted baseline speaking the same text
 protocol), so the whole path runs offline.
 
 Not a test and not run in CI. Checked here: the offline path end to end (stand-in episode,
@@ -34,8 +34,8 @@ from pathlib import Path
 import gymnasium as gym
 
 import pcbdata.env  # noqa: F401 - registers the ids
-from pcbdata.env.llm import LLMWrapper, run_episode
-from pcbdata.env.llm_standin import ScriptedModel
+from pcbdata.agents.llm_standin import ScriptedModel
+from pcbdata.env.llm.wrapper import LLMWrapper, run_episode
 
 
 class ChatCompletionsModel:

@@ -4,13 +4,13 @@
         [--rollouts 1] [--max-steps 60]
 
 1. `pcbdata build d2 --splits test --count 8` writes a small D2 test split (checked by KiCad).
-2. `pcbdata.env.rl.make_vector_env` starts N environments in spawned processes (Gymnasium's
+2. `pcbdata.env.wrappers.rl.make_vector_env` starts N environments in spawned processes (Gymnasium's
    AsyncVectorEnv, one KiCad engine each), each with its share of the boards; a masked random
    policy (`sample_action`: an allowed type, then an allowed index and mode of that type, from
    the observation's exact masks) steps them all at once. Gymnasium resets a finished
    environment on its next step, so each environment writes its own finished episodes:
    `RUNS/<board_id>/<rollout>.kicad_pcb` + `<rollout>.json`, the layout `pcbdata eval` reads
-   (`runs_dir=` of `make_rl_env`, `pcbdata.env.recorder`).
+   (`runs_dir=` of `make_rl_env`, `pcbdata.env.wrappers.recorder`).
 3. `pcbdata eval` scores the runs; its summary is printed.
 
 CPU only, no RL library needed. Checked on the 2-core development machine: about a minute in
@@ -47,7 +47,7 @@ def board_ids(root: Path) -> list[str]:
 
 def run(root: Path, runs: Path, envs_n: int, rollouts: int, max_steps: int, seed: int) -> dict:
     """Steps the vectorised environments until each has finished its scheduled episodes."""
-    from pcbdata.env.rl import make_vector_env, sample_action
+    from pcbdata.env.wrappers.rl import make_vector_env, sample_action
 
     ids = board_ids(root)
     envs = make_vector_env("d2", envs_n, root=str(root), split="test", boards=ids,

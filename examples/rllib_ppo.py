@@ -13,7 +13,7 @@ the environment's are nested dicts. This example flattens the observation with G
 `FlattenObservation` (float32) and maps a MultiDiscrete action [type, net, candidate, mode]
 onto the environment's Dict action. It ignores the action masks (`info["action_mask"]`): a
 masked action is a no-op with the reason in `info["rejected"]`, so PPO learns to avoid them
-slowly. `pcbdata.env.rl` (a wrapper with fixed-size arrays, a MultiDiscrete action and the
+slowly. `pcbdata.env.wrappers.rl` (a wrapper with fixed-size arrays, a MultiDiscrete action and the
 masks in the observation, on its way on another branch) is the intended wrapper; use it in
 place of `flat_env` once it lands.
 
@@ -43,7 +43,7 @@ ENV_CONFIG = {"split": "train", "count": 1000, "max_steps": 64, "drc": "terminal
 
 class MultiDiscreteActions(gym.ActionWrapper):
     """The environment's Dict action {type, net, candidate, mode} as MultiDiscrete([7, nets,
-    candidates, 3]). (`pcbdata.env.rl` will do this, with masks.)"""
+    candidates, 3]). (`pcbdata.env.wrappers.rl` will do this, with masks.)"""
 
     KEYS = ("type", "net", "candidate", "mode")
 

@@ -1,4 +1,4 @@
-"""`pcbdata render`: PNG pictures of boards (routed or bare) with `pcbdata.drawing`.
+"""`pcbdata render`: PNG pictures of boards (routed or bare) with `pcbdata.core.drawing`.
 
 KiCad reads each board into plain records in `KicadPool` workers
 (`pcbdata.kicad.board_records`); drawing and writing happen here. A board that cannot be read
@@ -14,12 +14,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pcbdata.drawing import draw_board, png_bytes, side_by_side
-from pcbdata.errors import UserError
-from pcbdata.fsutil import output_folder, write_atomic
+from pcbdata.core.drawing import draw_board, png_bytes, side_by_side
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import output_folder, write_atomic
+from pcbdata.core.sexpr_text import cut_problem
+from pcbdata.core.tree import BOARD_FILE, REFERENCE_FILE, board_dir
 from pcbdata.kicad import KicadPool
-from pcbdata.sexpr_text import cut_problem
-from pcbdata.tree import BOARD_FILE, REFERENCE_FILE, board_dir
 
 READ = "pcbdata.kicad.board_records:read_board"
 #: Pixels of one panel (width, height); a picture with a reference has two panels.

@@ -1,5 +1,5 @@
 """What `pcbdata build` does, as library functions: one per family, each assembling its
-configs from the registry (`pcbdata.configs`), building them and publishing the folder.
+configs from the registry (`pcbdata.spec.configs`), building them and publishing the folder.
 
     build_d1(out, grids=[10, 50], options=SyntheticOptions(splits=["test"]))
     build_d2(out, level="hard", overrides={"min_pad_spacing_mm": 3.6})
@@ -16,11 +16,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from pcbdata.configs import SYNTHETIC_SPLITS, ConfigSpec, d1_config, d2_config
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import output_folder
 from pcbdata.executors import Executor, resolve
-from pcbdata.fsutil import output_folder
-from pcbdata.synthetic_build import (
+from pcbdata.spec.configs import SYNTHETIC_SPLITS, ConfigSpec, d1_config, d2_config
+from pcbdata.synthetic.build import (
     BuildSummary,
     ConfigInfo,
     SplitJob,
@@ -69,7 +69,7 @@ class SyntheticOptions:
         return self.workers or os.cpu_count() or 1
 
     def validate(self) -> None:
-        from pcbdata.rng import check_seed
+        from pcbdata.core.rng import check_seed
 
         if self.count is not None and not 1 <= self.count <= MAX_COUNT:
             raise UserError(f"--count must be from 1 to {MAX_COUNT}, got {self.count}")
@@ -132,7 +132,7 @@ def build_configs(out: str | Path, specs: list[ConfigSpec],
 def build_d1(out: str | Path, grids: list[int] | None = None, placement: str | None = None,
              options: SyntheticOptions | None = None) -> BuildSummary:
     """D1 at `grids` (default: the preset's) with `placement` (default: the preset's)."""
-    from pcbdata.presets import d1_preset
+    from pcbdata.spec.presets import d1_preset
 
     specs = [d1_config(grid, placement) for grid in grids or d1_preset().grid_sizes]
     return build_configs(out, specs, options)
@@ -151,7 +151,7 @@ def build_d3(source: str | Path, out: str | Path, recipe: str | Path | None = No
     packaged one); returns the summary (fates, tier counts, wall seconds). The boards run on
     `executor` (default: this machine's workers; see `SyntheticOptions`)."""
     from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
 
     if not os.path.isdir(source):
         raise UserError(f"{source}: no such folder")
@@ -164,7 +164,7 @@ def build_d3(source: str | Path, out: str | Path, recipe: str | Path | None = No
     if not os.path.isdir(os.path.join(source, boards_dir)):
         raise UserError(f"{source}: not a PCBench checkout (no {boards_dir}/ folder)")
     output_folder(out)  # last check, first write: a refused run leaves nothing
-    from pcbdata.fsutil import folder_lock
+    from pcbdata.core.fsutil import folder_lock
 
     with folder_lock(out, "built"):  # a second build into the folder waits for this one
         summary = build(source, out, recipe_data,

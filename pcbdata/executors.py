@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from pcbdata import __version__
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 from pcbdata.kicad.pool import KicadError, KicadPool, Outcome, memory_limit_from_env
 
 EXECUTORS = ("local", "ray")

@@ -61,7 +61,7 @@ def real_subset(tmp_path_factory, kicad_pool):
         pytest.skip(f"real-corpus tests need the PCBench snapshot at {SHARED_PCBENCH} "
                     f"(absent on this machine)")
     from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
 
     root = tmp_path_factory.mktemp("pcbench")
     (root / "full").mkdir()

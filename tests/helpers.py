@@ -5,7 +5,7 @@ from pathlib import Path
 
 import sexpdata
 
-from pcbdata.kicad_writer import board_files
+from pcbdata.model.kicad_writer import board_files
 
 
 def write_board(folder: Path, board) -> Path:
@@ -59,7 +59,7 @@ def with_straight_tracks(board, unrouted_every: int = 3):
     violations, next to the unconnected items of the bare nets."""
     import dataclasses
 
-    from pcbdata.board import Track, Via
+    from pcbdata.model.board import Track, Via
 
     tracks, vias = [], []
     width, rules = board.rules.track_width, board.rules
@@ -133,10 +133,10 @@ def seal_set(root: Path) -> Path:
     build would, listing every file on disk with its sha256, so the evaluator and the
     environment take it as a verified set. A config the registry knows records its family,
     version, seed and parameters; the others are `d2` boards under another name."""
-    from pcbdata.configs import get_config
-    from pcbdata.errors import UserError
-    from pcbdata.hashing import sha256_file
-    from pcbdata.manifest import FORMAT, write_manifest
+    from pcbdata.core.errors import UserError
+    from pcbdata.core.hashing import sha256_file
+    from pcbdata.model.manifest import FORMAT, write_manifest
+    from pcbdata.spec.configs import get_config
 
     configs: dict = {}
     for split_dir in sorted(p for p in Path(root).glob("*/*") if p.is_dir()):

@@ -2,9 +2,9 @@
 coupling, and names resolve (or fail with the closest known one)."""
 import pytest
 
-from pcbdata.configs import get_config, registry
-from pcbdata.errors import UserError
-from pcbdata.presets import d1_preset, d2_levels
+from pcbdata.core.errors import UserError
+from pcbdata.spec.configs import get_config, registry
+from pcbdata.spec.presets import d1_preset, d2_levels
 
 
 def test_registry_lists_every_preset_grid_level_and_tier():
@@ -48,7 +48,7 @@ def test_every_synthetic_config_makes_a_generator_of_the_protocol():
 
 
 def test_a_level_with_overrides_is_a_custom_config_generated_from_its_parameters():
-    from pcbdata.configs import d2_config
+    from pcbdata.spec.configs import d2_config
 
     spec = d2_config("hard", {"min_pad_spacing_mm": 3.6})
     assert spec.name.startswith("d2-hard-custom-") and len(spec.name) == len("d2-hard-custom-") + 8
@@ -60,7 +60,7 @@ def test_a_level_with_overrides_is_a_custom_config_generated_from_its_parameters
 
 
 def test_names_are_ordered_by_family_then_grid():
-    from pcbdata.configs import family_of, order_key
+    from pcbdata.spec.configs import family_of, order_key
 
     names = ["d3-b", "d1-g500", "x", "d2-hard", "d1-g50-random-walk", "d1-g50", "d2", "d3-a"]
     assert sorted(names, key=order_key) == ["d2", "d2-hard", "d1-g50", "d1-g50-random-walk",

@@ -1,13 +1,13 @@
-"""Arc length from three points and the file's own copper, without KiCad (pcbdata.copper_geometry,
-pcbdata.copper_text)."""
+"""Arc length from three points and the file's own copper, without KiCad
+(pcbdata.core.copper_geometry, pcbdata.core.copper_text)."""
 from __future__ import annotations
 
 import math
 
 import pytest
 
-from pcbdata.copper_geometry import arc_length, arc_polyline, items_outside, outline_shape
-from pcbdata.copper_text import copper_in_file, file_problems, top_level_blocks
+from pcbdata.core.copper_geometry import arc_length, arc_polyline, items_outside, outline_shape
+from pcbdata.core.copper_text import copper_in_file, file_problems, top_level_blocks
 
 MM = 1_000_000
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 from pcbdata.executors import LOCAL, RayExecutor, get_executor, resolve
 from pcbdata.kicad.pool import KicadPool
 

@@ -30,8 +30,8 @@ def _build(out: Path, executor) -> dict[str, bytes]:
 def _rollouts(root: Path, runs: Path) -> None:
     """Two rollouts per board (straight tracks: shorts, clearance and unconnected items) and
     one cut file (a parse failure found before KiCad)."""
-    from pcbdata.configs import get_config
-    from pcbdata.kicad_writer import board_files
+    from pcbdata.model.kicad_writer import board_files
+    from pcbdata.spec.configs import get_config
 
     generator = get_config("d2").generator()
     for index in range(3):

@@ -1,6 +1,6 @@
 import os
 
-from pcbdata.fsutil import remove_stale_temps, write_atomic, write_dir_atomic
+from pcbdata.core.fsutil import remove_stale_temps, write_atomic, write_dir_atomic
 
 
 def test_atomic_writes_honour_the_umask_and_replace_whole(tmp_path):

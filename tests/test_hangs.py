@@ -11,8 +11,8 @@ from pathlib import Path
 import pytest
 
 from pcbdata.cli import main
-from pcbdata.kicad_writer import board_text
-from pcbdata.sexpr_text import cut_problem
+from pcbdata.core.sexpr_text import cut_problem
+from pcbdata.model.kicad_writer import board_text
 from tests.evaluator.boards import (
     ROUTE_A,
     ROUTE_B,
@@ -118,7 +118,7 @@ def test_eval_caches_a_time_out_under_its_limits(one_board_set, tmp_path, capsys
 
 def test_d3_build_gives_a_cut_board_its_load_failure_without_kicad(tmp_path):
     from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
     from tests.curation.corpus_fixture import fixture_recipe, make_corpus
 
     make_corpus(tmp_path / "corpus")

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from pcbdata.fsutil import folder_lock
+from pcbdata.core.fsutil import folder_lock
 from tests.helpers import seal_set
 from tests.processes import marked_env, new_marker, wait_for
 
@@ -50,7 +50,7 @@ def build_d2(out: Path, split: str, count: int = 24, *options: str) -> subproces
 
 
 def test_a_lock_waits_for_its_holder_and_dies_with_it(tmp_path):
-    code = ("import time\nfrom pcbdata.fsutil import folder_lock\n"
+    code = ("import time\nfrom pcbdata.core.fsutil import folder_lock\n"
             f"with folder_lock({str(tmp_path)!r}):\n    print('held', flush=True)\n"
             "    time.sleep(600)\n")
     holder = subprocess.Popen([sys.executable, "-c", code], cwd=REPO, stdout=subprocess.PIPE,

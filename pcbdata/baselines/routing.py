@@ -16,8 +16,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pcbdata.baselines import specctra
-from pcbdata.errors import UserError
-from pcbdata.fsutil import write_atomic
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import write_atomic
 from pcbdata.kicad import kicad_tools_route as kicad_tools
 from pcbdata.kicad.pool import KicadPool
 

@@ -7,7 +7,7 @@ DSN and writes SES can be plugged in with `--router-cmd`, e.g.
 `--router-cmd "java -jar freerouting.jar -de {dsn} -do {ses} -mp 20"`.
 
 The freeroute work-arounds (SES resolution, back-side components, planning for vias, the
-routing boundary) live in `pcbdata.specctra_text` and `pcbdata.kicad.specctra`; routing a set
+routing boundary) live in `pcbdata.core.specctra_text` and `pcbdata.kicad.specctra`; routing a set
 is `pcbdata.baselines.routing.route_set`.
 """
 from __future__ import annotations
@@ -15,7 +15,7 @@ from __future__ import annotations
 import shlex
 import sys
 
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 
 ROUTE = "pcbdata.kicad.specctra:route_board"
 #: freeroute options per rollout (cycled): rollout 0 is the package's most DRC-careful engine.

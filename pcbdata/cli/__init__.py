@@ -4,7 +4,7 @@ A verb module in this package defines `VERB` (its name), `HELP` (one line) and
 `register(parser)` which adds its arguments and `parser.set_defaults(run=function)`;
 `run(args)` returns the exit code. `build` has one module per family (`build_<family>.py`).
 Verb modules are thin: they parse, call one library function and print its summary; the
-errors of `pcbdata.errors` become one line and an exit code (2 bad input, 3 KiCad failure).
+errors of `pcbdata.core.errors` become one line and an exit code (2 bad input, 3 KiCad failure).
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ import pkgutil
 import sys
 
 from pcbdata import __version__
-from pcbdata.errors import EngineError, PcbdataError, one_line
+from pcbdata.core.errors import EngineError, PcbdataError, one_line
 from pcbdata.kicad.pool import KicadError
 
 

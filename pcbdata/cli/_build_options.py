@@ -6,8 +6,8 @@ import os
 from pcbdata.builders import MAX_COUNT
 from pcbdata.cli import _checks as checks
 from pcbdata.cli import _executor_options
-from pcbdata.configs import SYNTHETIC_SPLITS as SPLITS
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
+from pcbdata.spec.configs import SYNTHETIC_SPLITS as SPLITS
 
 
 def add_common(parser) -> None:

@@ -7,8 +7,8 @@ import errno
 import math
 
 from pcbdata.builders import MAX_WORKERS
-from pcbdata.errors import UserError
-from pcbdata.fsutil import os_reason, output_folder  # noqa: F401 - re-exported for verbs
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import os_reason, output_folder  # noqa: F401 - re-exported for verbs
 
 
 def integer(low: int, high: int | None = None, what: str = "an integer"):
@@ -51,8 +51,8 @@ weight = number(0)
 
 
 def seed(text: str) -> int:
-    """argparse type: a seed the whole pipeline can carry (`pcbdata.rng.check_seed`)."""
-    from pcbdata.rng import check_seed
+    """argparse type: a seed the whole pipeline can carry (`pcbdata.core.rng.check_seed`)."""
+    from pcbdata.core.rng import check_seed
 
     try:
         value = int(text, 10)

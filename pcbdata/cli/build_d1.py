@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from pcbdata.cli import _build_options as common
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 
 FAMILY = "d1"
 HELP = "D1 grid boards: 5 two-pin nets, one routing layer, grid sizes 10..500"
@@ -37,7 +37,7 @@ def parse_grids(text: str, preset_grids) -> list[int]:
 
 def run(args) -> int:
     from pcbdata.builders import build_d1
-    from pcbdata.presets import d1_preset
+    from pcbdata.spec.presets import d1_preset
 
     summary = build_d1(args.out, parse_grids(args.grid, d1_preset().grid_sizes), args.placement,
                        common.options(args))

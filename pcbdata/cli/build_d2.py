@@ -22,7 +22,7 @@ def register(parser) -> None:
 
 def run(args) -> int:
     from pcbdata.builders import build_d2
-    from pcbdata.presets import parse_overrides
+    from pcbdata.spec.presets import parse_overrides
 
     overrides = parse_overrides(args.overrides)
     summary = build_d2(args.out, args.level, overrides, common.options(args))

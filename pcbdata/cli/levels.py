@@ -13,7 +13,7 @@ def register(parser) -> None:
 def run(args) -> int:
     import json
 
-    from pcbdata.configs import registry
+    from pcbdata.spec.configs import registry
 
     levels = [spec for spec in registry().values() if spec.family == "d2"]  # in rank order
     if args.json:

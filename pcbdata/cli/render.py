@@ -48,7 +48,7 @@ def panel_size(text: str) -> tuple[int, int]:
 
 def run(args) -> int:
     from pcbdata.board_render import instance_folder, render_boards
-    from pcbdata.errors import UserError
+    from pcbdata.core.errors import UserError
 
     if args.set_root and not args.report:
         raise UserError("--set needs --report (the reference is drawn next to the best rollout)")

@@ -34,8 +34,8 @@ def register(parser) -> None:
 
 
 def run(args) -> int:
-    from pcbdata.env.rollout import run_rollouts
-    from pcbdata.errors import UserError
+    from pcbdata.agents.rollout import run_rollouts
+    from pcbdata.core.errors import UserError
 
     if args.rollouts < 1 or args.workers < 1:
         raise UserError("--rollouts and --workers must be at least 1")

@@ -36,7 +36,7 @@ def register(parser) -> None:
 
 def run(args) -> int:
     from pcbdata.baselines.routing import route_set
-    from pcbdata.errors import UserError
+    from pcbdata.core.errors import UserError
 
     if os.path.exists(args.out) and not os.path.isdir(args.out):
         raise UserError(f"--out {args.out}: exists and is not a folder (RUNS is a folder)")

@@ -20,7 +20,7 @@ def register(parser) -> None:
 
 def checked_run(args) -> int:
     """`run` once the options are in range (a negative --max-lines would hide problems)."""
-    from pcbdata.errors import UserError
+    from pcbdata.core.errors import UserError
 
     if args.max_lines < 0:
         raise UserError(f"--max-lines must be an integer >= 0, got {args.max_lines}")
@@ -28,8 +28,8 @@ def checked_run(args) -> int:
 
 
 def run(args) -> int:
-    from pcbdata.manifest import read_manifest
-    from pcbdata.verify import verify_release, verify_set
+    from pcbdata.model.manifest import read_manifest
+    from pcbdata.publish.verify_set import verify_release, verify_set
 
     problems = verify_set(args.dir)
     checks = verify_release(args.dir) if args.release else []

@@ -23,21 +23,12 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from pcbdata import __version__
-from pcbdata.configs import D3_SPLITS, D3_TIERS
-from pcbdata.curation import attribution as attr
-from pcbdata.curation import corpus
-from pcbdata.curation.picks import COLUMNS, Row, assign_tiers, evaluation_subsets, number_rows
-from pcbdata.curation.recipe import KeepCriteria, Recipe
-from pcbdata.errors import EngineError, UserError
-from pcbdata.executors import Executor, TaskPool, resolve
-from pcbdata.fsutil import folder_lock, remove_stale_temps, write_atomic, write_dir_atomic
-from pcbdata.hashing import sha256_bytes, sha256_text
-from pcbdata.kicad.drc_report import DrcReport
-from pcbdata.kicad.pool import KicadError, Outcome, is_limit_error
-from pcbdata.manifest import FORMAT, d3_facts, merge_configs, read_manifest, write_manifest
-from pcbdata.sexpr_text import cut_problem
-from pcbdata.textio import canonical_json, csv_text
-from pcbdata.tree import (
+from pcbdata.core.errors import EngineError, UserError
+from pcbdata.core.fsutil import folder_lock, remove_stale_temps, write_atomic, write_dir_atomic
+from pcbdata.core.hashing import sha256_bytes, sha256_text
+from pcbdata.core.sexpr_text import cut_problem
+from pcbdata.core.textio import canonical_json, csv_text
+from pcbdata.core.tree import (
     ATTRIBUTION_CSV,
     ATTRIBUTION_JSON,
     BOARD_FILE,
@@ -52,6 +43,15 @@ from pcbdata.tree import (
     folder_holds,
     manifest_path,
 )
+from pcbdata.curation import attribution as attr
+from pcbdata.curation import corpus
+from pcbdata.curation.picks import COLUMNS, Row, assign_tiers, evaluation_subsets, number_rows
+from pcbdata.executors import Executor, TaskPool, resolve
+from pcbdata.kicad.drc_report import DrcReport
+from pcbdata.kicad.pool import KicadError, Outcome, is_limit_error
+from pcbdata.model.manifest import FORMAT, d3_facts, merge_configs, read_manifest, write_manifest
+from pcbdata.spec.configs import D3_SPLITS, D3_TIERS
+from pcbdata.spec.recipe import KeepCriteria, Recipe
 
 STATE_DIR = D3_STATE_DIR
 BOARD_FILES = (BOARD_FILE, PROJECT_FILE, REFERENCE_FILE)

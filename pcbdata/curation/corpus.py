@@ -9,8 +9,8 @@ import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pcbdata.errors import UserError
-from pcbdata.hashing import sha256_file, sha256_text
+from pcbdata.core.errors import UserError
+from pcbdata.core.hashing import sha256_file, sha256_text
 
 MISSING_INPUT = "missing_input"
 LOAD_FAILURE = "load_failure"

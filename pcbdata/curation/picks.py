@@ -4,11 +4,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from pcbdata.configs import D3_TIERS
-from pcbdata.tree import d3_board_id
+from pcbdata.core.tree import d3_board_id
+from pcbdata.spec.configs import D3_TIERS
 
 if TYPE_CHECKING:
-    from pcbdata.curation.recipe import Override, Recipe
+    from pcbdata.spec.recipe import Override, Recipe
 
 COLUMNS = ["board_id", "name", "nets", "components", "pads", "layers", "tier", "in_test"]
 

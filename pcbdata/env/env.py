@@ -17,9 +17,8 @@ from pcbdata.env import candidates as cand
 from pcbdata.env import masks, observation, routing
 from pcbdata.env.actions import action_space, parse_action
 from pcbdata.env.errors import BoardLoadError, EngineFailure, EnvValueError
-from pcbdata.env.instances import instance_files, make_source, resolve_config
+from pcbdata.env.generator import instance_files, make_source, resolve_config
 from pcbdata.env.options import make_options, with_capacities
-from pcbdata.env.render import RENDER_MODES, RENDER_SIZE, state_records
 from pcbdata.env.reward import Telescope, board_state, canonical, counted, unconnected_from_clusters
 from pcbdata.env.session import KicadSession
 from pcbdata.env.static import static_board
@@ -37,6 +36,7 @@ from pcbdata.env.types import (
     START_ROUTE,
     Head,
 )
+from pcbdata.env.viewer import RENDER_MODES, RENDER_SIZE, state_records
 
 
 class RoutingEnv(gym.Env):
@@ -400,14 +400,14 @@ class RoutingEnv(gym.Env):
         return self._session.save(str(path))
 
     def render(self):
-        """The current state as an RGB uint8 array (`pcbdata.drawing`; legend in
+        """The current state as an RGB uint8 array (`pcbdata.core.drawing`; legend in
         docs/render.md), drawn from the data the environment holds; None without a render
         mode."""
         if self.render_mode is None:
             return None
         if self.static is None:
             raise EnvValueError("nothing to render: call reset() first")
-        from pcbdata.drawing import draw_board
+        from pcbdata.core.drawing import draw_board
 
         records = state_records(self.static, self._snap, self._head, self._counted())
         return draw_board(records, RENDER_SIZE)

@@ -1,8 +1,8 @@
-"""The environment's errors: `pcbdata.errors` kinds that are also the built-in exceptions
+"""The environment's errors: `pcbdata.core.errors` kinds that are also the built-in exceptions
 Gymnasium users expect (`TypeError` for an unknown keyword, `ValueError` for a bad value)."""
 from __future__ import annotations
 
-from pcbdata.errors import EngineError, UserError
+from pcbdata.core.errors import EngineError, UserError
 
 
 class EnvOptionError(UserError, TypeError):

@@ -10,8 +10,8 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from pcbdata.core.ratsnest import open_pairs
 from pcbdata.env.types import PHASES, Candidate, Head, StaticBoard
-from pcbdata.ratsnest import open_pairs
 
 MAX_LAYERS = 32
 PAD_SHAPES = ("other", "Circle", "Rect", "Oval", "Trapezoid", "Roundrect", "Chamferedrect",
@@ -136,7 +136,7 @@ def _copper_rows(static: StaticBoard, copper: list[dict]) -> tuple[list, list]:
 
 
 def ratsnest(static: StaticBoard, pad_cluster: list[int]) -> list[tuple]:
-    """Open connections as pcbdata draws them from KiCad's clusters (`pcbdata.ratsnest`)."""
+    """Open connections as pcbdata draws them from KiCad's clusters (`pcbdata.core.ratsnest`)."""
     net_index = {n.name: i for i, n in enumerate(static.nets)}
     points = [(p.x, p.y) for p in static.pads]
     pairs = open_pairs(points, [static.pads_of(n.name) for n in static.nets], pad_cluster)

@@ -1,7 +1,7 @@
 """Gymnasium ids of the routing environment.
 
-- `pcbdata/Route-<config>-v2`: one per config of `pcbdata.configs.registry()`, and its
-  RL-wrapped twin `pcbdata/RouteRL-<config>-v2` (`pcbdata.env.rl`).
+- `pcbdata/Route-<config>-v2`: one per config of `pcbdata.spec.configs.registry()`, and its
+  RL-wrapped twin `pcbdata/RouteRL-<config>-v2` (`pcbdata.env.wrappers.rl`).
 - `pcbdata/Route-v2` and `pcbdata/RouteRL-v2`: any config, named by the `config` option, of
   the built set `root` (custom D2 levels such as `d2-hard-custom-<hash>`, D1 placements such
   as `d1-g10-random-walk`, D3 tiers): the config is what the set's manifest records, so no id
@@ -23,7 +23,7 @@ import gymnasium as gym
 NAMESPACE = "pcbdata"
 VERSION = 2
 ENTRY_POINT = "pcbdata.env.env:RoutingEnv"
-RL_ENTRY_POINT = "pcbdata.env.rl:make_rl_env"
+RL_ENTRY_POINT = "pcbdata.env.wrappers.rl:make_rl_env"
 #: The ids that take any config of a built set (`config=` and `root=` options).
 SET_ENV_ID = f"{NAMESPACE}/Route-v{VERSION}"
 SET_RL_ENV_ID = f"{NAMESPACE}/RouteRL-v{VERSION}"
@@ -40,7 +40,7 @@ def rl_env_id(config: str, version: int = VERSION) -> str:
 def env_id_for(config: str) -> str:
     """The id to make `config` with: its own id when the registry has one, else the set id
     (`SET_ENV_ID`, with `config=` among the options)."""
-    from pcbdata.configs import registry
+    from pcbdata.spec.configs import registry
 
     return env_id(config) if config in registry() else SET_ENV_ID
 
@@ -67,7 +67,7 @@ def register_all() -> list[str]:
 
 
 def _register(id_of, entry_point: str) -> list[str]:
-    from pcbdata.configs import registry
+    from pcbdata.spec.configs import registry
 
     ids = []
     for name in registry():

@@ -1,8 +1,8 @@
 """The instance's static board (`types.StaticBoard`) from the KiCad session's plain data."""
 from __future__ import annotations
 
-from pcbdata.configs import ConfigSpec
 from pcbdata.env.types import NetRules, PadInfo, StaticBoard
+from pcbdata.spec.configs import ConfigSpec
 
 
 def _lattice(spec: ConfigSpec) -> tuple[int | None, int | None]:

@@ -9,12 +9,12 @@ import hashlib
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
+from pcbdata.core.hashing import sha256_file
+from pcbdata.core.sexpr_text import cut_problem
 from pcbdata.evaluator.integrity import rollout_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, raw_counts, rollout_metrics
 from pcbdata.executors import Executor, TaskPool, resolve
-from pcbdata.hashing import sha256_file
-from pcbdata.sexpr_text import cut_problem
 
 #: Bump when any metric, bucket or the integrity check changes: cached scores are keyed by it.
 #: 2.0.0: copper transplanted onto the instance's board; evaluation and strict counts.

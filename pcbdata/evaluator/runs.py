@@ -17,13 +17,13 @@ import re
 import sys
 from pathlib import Path
 
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import folder_lock, write_atomic
+from pcbdata.core.hashing import sha256_file
 from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, complete, instance_hash
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, pick_best
 from pcbdata.evaluator.setcheck import mark, refuse_unverified, set_identity
 from pcbdata.executors import Executor
-from pcbdata.fsutil import folder_lock, write_atomic
-from pcbdata.hashing import sha256_file
 from pcbdata.kicad.pool import is_limit_error, memory_limit_from_env
 
 TIME_KEYS = ("time_s", "time", "seconds", "wall_time_s")

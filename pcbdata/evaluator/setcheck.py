@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pcbdata.errors import UserError
-from pcbdata.hashing import sha256_file
-from pcbdata.manifest import manifest_path, read_manifest
+from pcbdata.core.errors import UserError
+from pcbdata.core.hashing import sha256_file
+from pcbdata.model.manifest import manifest_path, read_manifest
 
 #: Problems quoted in a report or an error (all are counted).
 SHOWN_PROBLEMS = 5
@@ -21,7 +21,7 @@ SHOWN_PROBLEMS = 5
 def scored_split_problems(root: Path, manifest: dict, config: str, split: str) -> list[str]:
     """`pcbdata verify`'s checks of one split's boards: every file the manifest lists, with its
     sha256, and nothing else in the board folders."""
-    from pcbdata.verify import check_split
+    from pcbdata.publish.verify_set import check_split
 
     entry = manifest.get("configs", {}).get(config)
     if entry is None or split not in entry.get("splits", {}):

@@ -1,6 +1,6 @@
 """The generator protocol: what every board generator (D1, D2, ...) provides.
 
-The build pipeline (`pcbdata.synthetic_build`), the golden tests and the routing environment
+The build pipeline (`pcbdata.synthetic.build`), the golden tests and the routing environment
 see generators through `Generator` only; family specifics stay in the family's module. A
 generator that also exports whole splits as arrays (D1: the Connector arrays) implements
 `SplitArrays` as well.
@@ -10,8 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
-from pcbdata.board import Board, nm_to_mm
-from pcbdata.tree import synthetic_board_id
+from pcbdata.core.tree import synthetic_board_id
+from pcbdata.model.board import Board, nm_to_mm
 
 # Physical limits of generated boards, checked with the parameters (before anything is
 # written). KiCad stores coordinates as signed 32-bit nanometres, so nothing can lie beyond
@@ -39,7 +39,7 @@ class Instance:
     reference: Board | None = None
 
     def facts(self, routing_layers: int) -> dict:
-        """The per-board facts of the manifest (vocabulary: `pcbdata.manifest.BOARD_FACTS`)."""
+        """The per-board facts of the manifest (`pcbdata.model.manifest.BOARD_FACTS`)."""
         board = self.board
         return {
             "n_nets": len(board.net_names),
@@ -58,7 +58,7 @@ class Generator(Protocol):
 
     Guarantee, stated by every implementation (which may add its own): the same parameters,
     seed, split and index give the same instance, byte for byte once written (draws from
-    `pcbdata.rng.Stream`, one stream per board); the board loads in KiCad 9.0.8 and its DRC
+    `pcbdata.core.rng.Stream`, one stream per board); the board loads in KiCad 9.0.8 and its DRC
     reports nothing but the unconnected items routing resolves
     (`instance.board.missing_connections`); a reference routing, when there is one, is
     DRC-clean and fully connected. Parameters a generator cannot realise are rejected when it is

@@ -3,11 +3,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from pcbdata.board import Board, Pad, Rules, Track, mm_to_nm
-from pcbdata.connector import connector_arrays, npz_bytes
-from pcbdata.errors import GenerationError, UserError
+from pcbdata.core.errors import GenerationError, UserError
+from pcbdata.core.rng import Stream, check_seed
 from pcbdata.generators.base import MIN_FEATURE_MM, Instance, board_id
-from pcbdata.rng import Stream, check_seed
+from pcbdata.model.board import Board, Pad, Rules, Track, mm_to_nm
+from pcbdata.model.connector import connector_arrays, npz_bytes
 
 PLACEMENTS = ("uniform", "random-walk")
 SIDE_NM = 100 * 1_000_000  # the lattice spans 100 mm whatever the grid size

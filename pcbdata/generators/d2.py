@@ -4,8 +4,8 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field, fields
 
-from pcbdata.board import Board, CopperLayer, Pad, PadKind, Rules, mm_to_nm
-from pcbdata.errors import GenerationError, UserError
+from pcbdata.core.errors import GenerationError, UserError
+from pcbdata.core.rng import Stream, check_seed
 from pcbdata.generators.base import (
     KICAD_HOLE_CLEARANCE_MM,
     KICAD_MIN_ANNULAR_MM,
@@ -14,7 +14,7 @@ from pcbdata.generators.base import (
     Instance,
     board_id,
 )
-from pcbdata.rng import Stream, check_seed
+from pcbdata.model.board import Board, CopperLayer, Pad, PadKind, Rules, mm_to_nm
 
 _ATTEMPTS_PER_PAD = 500
 _PLACEMENT_RESTARTS = 10

@@ -1,4 +1,4 @@
-"""A `.kicad_pcb` as plain drawing records (`pcbdata.drawing`), read by KiCad in a `KicadPool`
+"""A `.kicad_pcb` as plain drawing records (`pcbdata.core.drawing`), read by KiCad in a `KicadPool`
 worker: outline, pads with KiCad's polygons per copper layer, tracks, arcs, vias, filled zones
 and copper drawings, and the ratsnest of KiCad's connectivity (integer nanometres).
 
@@ -11,6 +11,7 @@ import os
 import shutil
 import tempfile
 
+from pcbdata.core.ratsnest import open_pairs
 from pcbdata.kicad.basics import load_board, stage_with_project
 from pcbdata.kicad.routing_session import (
     _graphics,
@@ -21,12 +22,11 @@ from pcbdata.kicad.routing_session import (
     _zones,
 )
 from pcbdata.kicad.scoring import copper_labels
-from pcbdata.ratsnest import open_pairs
 
 
 def ratsnest_edges(pads: list[dict], labels: list[int]) -> list[tuple[int, int, int, int]]:
     """Open connections from KiCad's copper clusters, drawn as the environment's observation
-    draws them (`pcbdata.ratsnest`), nets in name order."""
+    draws them (`pcbdata.core.ratsnest`), nets in name order."""
     by_net: dict[str, list[int]] = {}
     for i, pad in enumerate(pads):
         if pad["net"]:

@@ -21,7 +21,7 @@ import sys
 import tempfile
 import time
 
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 
 EXECUTABLE = "kct"
 #: `--seed` per rollout: the router is deterministic for a given seed.

@@ -69,7 +69,7 @@ def memory_limit_from_env(value: int | None = None) -> int:
     try:
         return max(0, int(text))
     except ValueError:
-        from pcbdata.errors import UserError
+        from pcbdata.core.errors import UserError
 
         raise UserError(f"{MEMORY_ENV}={text!r}: expected a whole number of MiB "
                         f"(0 for no limit)") from None

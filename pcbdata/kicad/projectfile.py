@@ -11,7 +11,7 @@ from __future__ import annotations
 import copy
 from collections.abc import Iterable
 
-from pcbdata.textio import canonical_json
+from pcbdata.core.textio import canonical_json
 
 
 def dumps_project(project: dict) -> str:

@@ -19,12 +19,12 @@ import os
 import re
 import tempfile
 
-from pcbdata.copper_geometry import arc_length, items_outside, outline_shape
-from pcbdata.copper_text import copper_in_file, file_problems, kind_counts
+from pcbdata.core.copper_geometry import arc_length, items_outside, outline_shape
+from pcbdata.core.copper_text import copper_in_file, file_problems, kind_counts
+from pcbdata.core.sexpr_text import block_end
 from pcbdata.kicad.basics import board_drc_text, stage_with_project
 from pcbdata.kicad.basics import pcbnew_module as _pcbnew
 from pcbdata.kicad.drc_report import NO_NET, parse_drc_report
-from pcbdata.sexpr_text import block_end
 
 STEM = "scored"
 #: Transplanted items get UUIDs from this seed, so a board gets the same UUIDs in any worker.

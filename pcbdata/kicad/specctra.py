@@ -11,9 +11,9 @@ import subprocess
 import tempfile
 import time
 
+from pcbdata.core.sexpr_text import block_end
 from pcbdata.kicad.basics import pcbnew_module as _pcbnew
 from pcbdata.kicad.scoring import stage_board
-from pcbdata.sexpr_text import block_end
 
 _RESOLUTION = re.compile(rb"\(resolution\s+(\w+)\s+(\d+)\)")
 _DSN_UNIT = re.compile(rb"\(unit\s+(\w+)\)")
@@ -59,7 +59,7 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
                 flip_back: bool = False, plan_for_vias: bool = False) -> dict:
     """Exports the board as DSN, runs `command` on it, imports the SES and saves the routed
     board to `out_path`. `fix_resolution`, `flip_back` and `plan_for_vias` work around
-    freeroute defects (see `fix_ses_resolution` and `pcbdata.specctra_text`).
+    freeroute defects (see `fix_ses_resolution` and `pcbdata.core.specctra_text`).
     Returns {ok, reason, seconds, router_seconds, router_cpu_seconds, tracks, vias}."""
     pcbnew = _pcbnew()
     start = time.perf_counter()
@@ -72,14 +72,14 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         back_refs: set[str] = set()
         planning: dict = {}
         if plan_for_vias:
-            from pcbdata.specctra_text import prepare_dsn_for_freeroute
+            from pcbdata.core.specctra_text import prepare_dsn_for_freeroute
 
             with open(dsn, encoding="utf-8") as handle:
                 text, planning = prepare_dsn_for_freeroute(handle.read())
             with open(dsn, "w", encoding="utf-8") as handle:
                 handle.write(text)
         if flip_back:
-            from pcbdata.specctra_text import flip_back_components
+            from pcbdata.core.specctra_text import flip_back_components
 
             with open(dsn, encoding="utf-8") as handle:
                 text, back_refs = flip_back_components(handle.read())
@@ -110,7 +110,7 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
             with open(ses, "wb") as handle:
                 handle.write(fixed)
         if back_refs:
-            from pcbdata.specctra_text import restore_back_placements
+            from pcbdata.core.specctra_text import restore_back_placements
 
             with open(ses, encoding="utf-8") as handle:
                 text = restore_back_placements(handle.read(), back_refs)
@@ -119,7 +119,7 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         with open(ses, encoding="utf-8", errors="replace") as handle:
             text = strip_ses_placement(handle.read())
         if planning:
-            from pcbdata.specctra_text import restore_ses_after_freeroute
+            from pcbdata.core.specctra_text import restore_ses_after_freeroute
 
             text = restore_ses_after_freeroute(text, planning)
         with open(ses, "w", encoding="utf-8") as handle:

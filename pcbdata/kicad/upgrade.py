@@ -20,7 +20,8 @@ import tempfile
 import time
 from typing import Any
 
-from pcbdata.hashing import sha256_bytes, sha256_file
+from pcbdata.core.hashing import sha256_bytes, sha256_file
+from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE
 from pcbdata.kicad.basics import board_drc_text
 from pcbdata.kicad.basics import pcbnew_module as _pcbnew
 from pcbdata.kicad.drc_report import parse_drc_report
@@ -31,7 +32,6 @@ from pcbdata.kicad.projectfile import (
     patch_project,
     with_default_clearance,
 )
-from pcbdata.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE
 
 _ACTUAL = re.compile(r"actual ([0-9.]+) mm")
 

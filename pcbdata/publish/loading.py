@@ -13,13 +13,13 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 
-from pcbdata.errors import UserError
-from pcbdata.fsutil import write_dir_atomic
-from pcbdata.hashing import sha256_bytes, sha256_file
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import write_dir_atomic
+from pcbdata.core.hashing import sha256_bytes, sha256_file
+from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE
 from pcbdata.publish.card import read_card_configs
 from pcbdata.publish.layout import CARD_NAME, FILE_COLUMNS, STATE_NAME, split_key, suggest
 from pcbdata.publish.verify import recorded_shard_hashes as _recorded_hashes
-from pcbdata.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE
 
 ROOT_ENV = "PCBDATA_ROOT"
 _HUB_ID = re.compile(r"^[A-Za-z0-9][\w.-]*/[\w.-]+$")
@@ -129,7 +129,7 @@ def _pinned_release(config: str):
 def _require_release(ds, release, split: str, root: str | Path) -> None:
     """Raises UserError unless the loaded rows are the pinned release's (or, for a local set
     whose manifest declares fewer boards, the boards that manifest lists, each released)."""
-    from pcbdata.manifest import MANIFEST_NAME, read_manifest
+    from pcbdata.model.manifest import MANIFEST_NAME, read_manifest
     from pcbdata.publish.manifests import check_release
     from pcbdata.publish.verify import release_row_problems
 

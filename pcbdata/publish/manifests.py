@@ -21,9 +21,9 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from pcbdata.errors import UserError
-from pcbdata.fsutil import write_atomic
-from pcbdata.manifest import read_manifest
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import write_atomic
+from pcbdata.model.manifest import read_manifest
 from pcbdata.resources import resource_path
 
 SUFFIX = ".json.gz"

@@ -1,5 +1,5 @@
 """Pictures for the dataset card: pad-count histograms (plain SVG written here) and board
-previews: the task with its ratsnest next to the reference routing (`pcbdata.drawing`, from
+previews: the task with its ratsnest next to the reference routing (`pcbdata.core.drawing`, from
 records KiCad reads in workers, `pcbdata.kicad.board_records`)."""
 from __future__ import annotations
 
@@ -11,10 +11,10 @@ from html import escape
 from pathlib import Path
 
 from pcbdata.board_render import Picture, draw_picture, read_boards
-from pcbdata.configs import D3_TIERS
-from pcbdata.drawing import png_bytes
+from pcbdata.core.drawing import png_bytes
 from pcbdata.kicad import KicadPool
 from pcbdata.publish.layout import write_file
+from pcbdata.spec.configs import D3_TIERS
 
 # Colours of the D3 tiers, and of everything else.
 _TIER_COLOURS = {D3_TIERS["A"]: "#4c78a8", D3_TIERS["B"]: "#f58518", D3_TIERS["C"]: "#54a24b"}
@@ -184,7 +184,7 @@ def preview_svg(png: bytes, width: int, height: int, title: str) -> str:
 
 
 class PreviewRenderer:
-    """Draws board previews (`pcbdata.drawing`) from records that KiCad reads in worker
+    """Draws board previews (`pcbdata.core.drawing`) from records that KiCad reads in worker
     processes (`pcbdata.kicad.board_records`), one pool per publication; workers start only
     when there is a preview to draw. Previews are illustrations, never required: a board that
     cannot be read gives a reason, not an error."""

@@ -18,11 +18,11 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 
-from pcbdata.configs import D3_TIERS
-from pcbdata.curation.recipe import tier_rules
-from pcbdata.errors import UserError
-from pcbdata.hashing import sha256_file, sha256_text
-from pcbdata.manifest import board_fact, read_manifest
+from pcbdata.core.errors import UserError
+from pcbdata.core.hashing import sha256_file, sha256_text
+from pcbdata.core.textio import canonical_json
+from pcbdata.core.tree import BOARD_FILE, REFERENCE_FILE, arrays_path, board_dir
+from pcbdata.model.manifest import board_fact, read_manifest
 from pcbdata.publish import pictures
 from pcbdata.publish.card import attribution_markdown, card_text
 from pcbdata.publish.layout import (
@@ -49,8 +49,8 @@ from pcbdata.publish.rows import (
     schema_for,
     table_from_rows,
 )
-from pcbdata.textio import canonical_json
-from pcbdata.tree import BOARD_FILE, REFERENCE_FILE, arrays_path, board_dir
+from pcbdata.spec.configs import D3_TIERS
+from pcbdata.spec.recipe import tier_rules
 
 SHARD_BYTES = 256 * 1024 * 1024  # uncompressed text per shard
 ROW_GROUP_BYTES = 32 * 1024 * 1024

@@ -4,7 +4,7 @@ One row per board. Columns, in order:
 
 - identity: `config`, `split`, `board_id`, `family`, `set_version`;
 - facts: `n_nets`, `n_pads`, `n_components`, `n_layers`, `routing_layers`, `width_mm`,
-  `height_mm` (`pcbdata.manifest.BOARD_FACTS`, read with `board_fact` whichever family wrote
+  `height_mm` (`pcbdata.model.manifest.BOARD_FACTS`, read with `board_fact` whichever family wrote
   the entry), then every other per-board fact of the manifest (D3: name, source, licence, ...),
   nested tables flattened to `outer_inner`, lists as JSON text;
 - `redistributable` (False: a recipe row, whose file texts are null and whose hashes let
@@ -24,11 +24,11 @@ from pathlib import Path
 import numpy as np
 import pyarrow as pa
 
-from pcbdata.errors import UserError
-from pcbdata.hashing import sha256_bytes
-from pcbdata.manifest import BOARD_FACTS, D3_FACT_NAMES, board_fact
+from pcbdata.core.errors import UserError
+from pcbdata.core.hashing import sha256_bytes
+from pcbdata.core.tree import arrays_path, board_dir
+from pcbdata.model.manifest import BOARD_FACTS, D3_FACT_NAMES, board_fact
 from pcbdata.publish.layout import FILE_COLUMNS
-from pcbdata.tree import arrays_path, board_dir
 
 _FLOAT_FACTS = {"width_mm", "height_mm"}
 KNOWN_FACTS = {name: pa.float64() if name in _FLOAT_FACTS else pa.int64() for name in BOARD_FACTS}

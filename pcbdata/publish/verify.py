@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 
-from pcbdata.errors import UserError
-from pcbdata.fsutil import sha256_bytes, sha256_file
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import sha256_bytes, sha256_file
 from pcbdata.publish.card import read_card_configs
 from pcbdata.publish.layout import CARD_NAME, FILE_COLUMNS, STATE_NAME, config_key, split_key
 from pcbdata.publish.rows import is_redistributable

@@ -171,7 +171,7 @@ def _round_away(cx: float, cy: float, x: float, y: float) -> Point:
 
 
 def geometry_from_board(board) -> BoardGeometry:
-    """`BoardGeometry` of a `pcbdata.board.Board` (generated D1/D2 boards, and their routes).
+    """`BoardGeometry` of a `pcbdata.model.board.Board` (generated D1/D2 boards, and their routes).
 
     Every item gets the board's one clearance; through-hole pads and vias span F.Cu and B.Cu.
     """

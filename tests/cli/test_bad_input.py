@@ -13,7 +13,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from pcbdata.cli import main
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 from pcbdata.generators import D1Generator, D1Params, D2Generator, D2Params
 
 PCBDATA = [sys.executable, "-m", "pcbdata"]

@@ -10,9 +10,9 @@ from dataclasses import replace
 import pytest
 
 from pcbdata.cli import main
-from pcbdata.errors import ValidationError
+from pcbdata.core.errors import ValidationError
 from pcbdata.generators import D2Generator, D2Params
-from pcbdata.synthetic_build import ConfigInfo, SplitJob, build_synthetic
+from pcbdata.synthetic.build import ConfigInfo, SplitJob, build_synthetic
 
 PCBDATA = [sys.executable, "-m", "pcbdata"]
 

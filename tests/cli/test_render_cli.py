@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from pcbdata import drawing
 from pcbdata.cli import main
+from pcbdata.core import drawing
 from tests.env.conftest import write_set
 
 TITLE = 14  # pixels of the title bar above each panel (drawn in the ratsnest colour)

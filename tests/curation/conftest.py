@@ -18,7 +18,7 @@ def fixture_corpus(tmp_path_factory):
 def fixture_build(fixture_corpus, kicad_pool):
     """The fixture corpus built once (library call, shared engine pool)."""
     from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
 
     out = fixture_corpus["root"] / "out"
     lines: list[str] = []

@@ -9,8 +9,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from pcbdata.board import Board, Pad, Rules, Track, mm_to_nm
-from pcbdata.kicad_writer import board_text
+from pcbdata.model.board import Board, Pad, Rules, Track, mm_to_nm
+from pcbdata.model.kicad_writer import board_text
 
 RULES = Rules(clearance=mm_to_nm(0.2), track_width=mm_to_nm(0.25),
               edge_clearance=mm_to_nm(0.3), via_diameter=mm_to_nm(0.8),

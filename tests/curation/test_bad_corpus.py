@@ -9,8 +9,8 @@ from pathlib import Path
 import pytest
 
 from pcbdata.curation import corpus
-from pcbdata.curation.recipe import load_recipe
-from pcbdata.kicad_writer import board_text
+from pcbdata.model.kicad_writer import board_text
+from pcbdata.spec.recipe import load_recipe
 from tests.curation.corpus_fixture import _folder, final_json, fixture_recipe, row_board
 
 UNKNOWN_ATTRIBUTION = "attribution unknown (licence NOASSERTION, not redistributable)"

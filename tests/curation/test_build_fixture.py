@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from pcbdata.hashing import sha256_file
+from pcbdata.core.hashing import sha256_file
 from tests.curation.corpus_fixture import EXPECTED_FATES, LEGACY
 
 REPO = Path(__file__).resolve().parents[2]
@@ -156,7 +156,7 @@ def test_attribution(fixture_build):
 
 def test_rebuild_in_place_reuses_state_and_changes_nothing(fixture_build, kicad_pool):
     from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
 
     before = {p: (fixture_build["out"] / p).read_bytes() for p in tree(fixture_build["out"])}
     lines: list[str] = []
@@ -217,7 +217,7 @@ def test_time_limit_is_an_engine_failure_kept_under_the_same_limit(fixture_corpu
     import shutil
 
     from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
 
     src = tmp_path / "src"
     (src / "PCBs").mkdir(parents=True)
@@ -250,7 +250,7 @@ def test_other_sets_in_the_folder_keep_their_manifest_entries(fixture_build, kic
     import shutil
 
     from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
 
     out = tmp_path / "out"
     shutil.copytree(fixture_build["out"], out)

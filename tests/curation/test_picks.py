@@ -15,7 +15,7 @@ from pcbdata.curation.picks import (
     number_rows,
     picks,
 )
-from pcbdata.curation.recipe import Override, load_recipe, parse_recipe
+from pcbdata.spec.recipe import Override, load_recipe, parse_recipe
 
 
 def rows(spec):
@@ -138,6 +138,6 @@ def test_published_replacement_in_its_bin():
 
 def test_recipe_rejects_overrides_without_reason():
     raw = load_recipe().text + b'\n[[overrides]]\nkind = "exclude"\nboard = "x"\nreason = ""\n'
-    from pcbdata.errors import UserError
+    from pcbdata.core.errors import UserError
     with pytest.raises(UserError, match="reason"):
         parse_recipe(raw, "bad.toml")

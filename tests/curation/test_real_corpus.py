@@ -54,7 +54,7 @@ def test_real_subset_reports_the_seven_missing_boards(real_subset):
 
 @pytest.mark.slow
 def test_real_subset_manifest_lists_every_file(real_subset):
-    from pcbdata.hashing import sha256_file
+    from pcbdata.core.hashing import sha256_file
 
     out = real_subset["out"]
     manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))

@@ -20,7 +20,7 @@ class KillsItsRayWorkerOnce:
     the task again elsewhere. A file in the Ray test cluster's RAY_TEST_SCRATCH remembers it."""
 
     def __init__(self, seed: int = 0):
-        from pcbdata.env.agents import ScriptedAgent
+        from pcbdata.agents.scripted import ScriptedAgent
 
         self.seed, self.scripted = seed, ScriptedAgent(seed=seed)
 

@@ -12,8 +12,8 @@ D1_BOARDS = 2
 
 
 def write_set(root: Path, config: str, split: str, count: int) -> Path:
-    from pcbdata.configs import get_config
-    from pcbdata.kicad_writer import board_files
+    from pcbdata.model.kicad_writer import board_files
+    from pcbdata.spec.configs import get_config
     from tests.helpers import seal_set
 
     spec = get_config(config)

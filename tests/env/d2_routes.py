@@ -15,11 +15,11 @@ from dataclasses import dataclass, replace
 
 import shapely
 
-from pcbdata.board import Board, Pad, Track, Via
 from pcbdata.generators import D2Generator
-from pcbdata.presets import d2_level
+from pcbdata.model.board import Board, Pad, Track, Via
 from pcbdata.router.geometry import geometry_from_board
 from pcbdata.router.walkaround import RouteRequest, WalkaroundRouter
+from pcbdata.spec.presets import d2_level
 
 LAYERS = ("F.Cu", "B.Cu")
 

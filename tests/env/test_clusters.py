@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
+from pcbdata.core.tree import PROJECT_FILE, REFERENCE_FILE, RULES_FILE
 from pcbdata.kicad.pool import KicadPool
-from pcbdata.tree import PROJECT_FILE, REFERENCE_FILE, RULES_FILE
 
 
 def _references(root: Path) -> list[Path]:

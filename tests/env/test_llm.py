@@ -1,4 +1,4 @@
-"""The language-model wrapper (`pcbdata.env.llm`): tool schema, strict reply parser, text of
+"""The language-model wrapper (`pcbdata.env.llm.wrapper`): tool schema, strict reply parser, text of
 the board, history and streak lines, and whole episodes driven by a scripted stand-in model
 (valid, malformed and masked replies) on a D2 board, scored by the evaluator. No network."""
 from __future__ import annotations
@@ -9,9 +9,9 @@ import re
 
 import pytest
 
-from pcbdata.env.llm import STOP, LLMWrapper, run_episode
-from pcbdata.env.llm_standin import ScriptedModel, as_reply
-from pcbdata.env.llm_tools import VERBS, parse_reply, tool_schema
+from pcbdata.agents.llm_standin import ScriptedModel, as_reply
+from pcbdata.env.llm.tools import VERBS, parse_reply, tool_schema
+from pcbdata.env.llm.wrapper import STOP, LLMWrapper, run_episode
 from pcbdata.env.types import (
     FINISH,
     IDLE,
@@ -322,7 +322,7 @@ def test_wrapper_passes_gymnasiums_check(make_env):
 
 
 def test_mm_has_three_decimals():
-    from pcbdata.env.llm_text import mm
+    from pcbdata.env.llm.text import mm
 
     assert [mm(v) for v in (0, -0.0, -0.0001, 1.2345678, 109.0685, -3.5)] == [
         "0.000", "0.000", "0.000", "1.235", "109.069", "-3.500"]

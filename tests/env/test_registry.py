@@ -8,8 +8,8 @@ import pytest
 from gymnasium.utils.env_checker import check_env
 
 import pcbdata.env  # noqa: F401
-from pcbdata.configs import registry
 from pcbdata.env.registry import env_id
+from pcbdata.spec.configs import registry
 
 IDS = [env_id(name) for name in registry()]
 
@@ -55,7 +55,7 @@ def _d3_root(ident: str, d3_set):
 def _random_steps(env, steps: int) -> None:
     """Seeded masked-random actions on real boards never crash (D3: real netclasses, zones,
     many layers)."""
-    from pcbdata.env.agents import RandomAgent
+    from pcbdata.agents.scripted import RandomAgent
 
     agent = RandomAgent(7)
     obs, info = env.reset(seed=7)

@@ -1,4 +1,4 @@
-"""`render_mode="rgb_array"`: the environment's state as a picture (`pcbdata.drawing`): copper
+"""`render_mode="rgb_array"`: the environment's state as a picture (`pcbdata.core.drawing`): copper
 per layer in its colour, ratsnest lines while pads are open, the head, DRC markers; identical
 bytes for identical states; Gymnasium's checker with the render mode."""
 from __future__ import annotations
@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from pcbdata import drawing
-from pcbdata.env.agents import ScriptedAgent
+from pcbdata.agents.scripted import ScriptedAgent
+from pcbdata.core import drawing
 from pcbdata.env.errors import EnvValueError
-from pcbdata.env.render import RENDER_SIZE
+from pcbdata.env.viewer import RENDER_SIZE
 
 
 def count(image: np.ndarray, colour) -> int:
@@ -142,4 +142,4 @@ def test_pillow_is_imported_only_by_the_drawing_module():
     importers = sorted(str(p.relative_to(REPO_ROOT)) for p in (REPO_ROOT / "pcbdata").rglob("*.py")
                        if any(line.startswith(("import PIL", "from PIL"))
                               for line in p.read_text(encoding="utf-8").splitlines()))
-    assert importers == ["pcbdata/drawing.py"]
+    assert importers == ["pcbdata/core/drawing.py"]

@@ -1,7 +1,7 @@
-"""The RL wrapper (`pcbdata.env.rl`): spaces, the flat (MaskablePPO) and exact masks against the
-environment's own masks, masked combinations as no-ops, features invariant to moving the board
-(a raw observation moved, and the same D2 board written moved and loaded by KiCad), check_env,
-seeded determinism, the registered RouteRL ids and the run recorder."""
+"""The RL wrapper (`pcbdata.env.wrappers.rl`): spaces, the flat (MaskablePPO) and exact masks
+against the environment's own masks, masked combinations as no-ops, features invariant to
+moving the board (a raw observation moved, and the same D2 board written moved and loaded by
+KiCad), check_env, seeded determinism, the registered RouteRL ids and the run recorder."""
 from __future__ import annotations
 
 import dataclasses
@@ -13,12 +13,12 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
+import pcbdata.core.errors
 import pcbdata.env  # noqa: F401 - registers the ids
-import pcbdata.errors
-from pcbdata.env import features
 from pcbdata.env.env import RoutingEnv
-from pcbdata.env.rl import RLWrapper, env_action, make_rl_env, sample_action
 from pcbdata.env.types import ACTION_TYPES, MAKE_LINE, MAKE_VIA, MODES, NET_SELECT
+from pcbdata.env.wrappers import features
+from pcbdata.env.wrappers.rl import RLWrapper, env_action, make_rl_env, sample_action
 from tests.env.conftest import write_set
 
 
@@ -118,7 +118,7 @@ def test_malformed_actions_are_noops(rl_env):
     env = rl_env("d2")
     with pytest.raises(gym.error.ResetNeeded):
         env.step([0, 0, 0])
-    with pytest.raises(pcbdata.errors.UserError, match="runs_dir"):
+    with pytest.raises(pcbdata.core.errors.UserError, match="runs_dir"):
         rl_env("d2", boards=["board_00000"])
     env.reset(seed=0)
     for bad in ([1, 2], np.asarray([1.5, 0, 0]), "net_select", [1, 10**6, 0], [9, 0, 0]):
@@ -214,9 +214,9 @@ def test_features_of_a_moved_raw_observation_are_the_same(board_set):
 def _write_moved_set(root, dx_mm: float, dy_mm: float) -> None:
     """Board 0 of D2's test split, written as `pcbdata build` writes it but moved: pads shifted
     in the board model, the Edge.Cuts rectangle shifted in the text."""
-    from pcbdata.board import mm_to_nm, nm_to_mm
-    from pcbdata.configs import get_config
-    from pcbdata.kicad_writer import board_files
+    from pcbdata.model.board import mm_to_nm, nm_to_mm
+    from pcbdata.model.kicad_writer import board_files
+    from pcbdata.spec.configs import get_config
 
     spec = get_config("d2")
     instance = spec.generator().generate(spec.seed, "test", 0)
@@ -237,7 +237,7 @@ def _write_moved_set(root, dx_mm: float, dy_mm: float) -> None:
 
 
 def _fmt(value: float) -> str:
-    from pcbdata.kicad_writer import mm
+    from pcbdata.model.kicad_writer import mm
 
     return mm(round(value * 1e6))
 

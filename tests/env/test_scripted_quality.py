@@ -2,8 +2,8 @@
 only) carry no clearance, shorting or crossing violation (D2 test sample)."""
 from __future__ import annotations
 
-from pcbdata.env.agents import ScriptedAgent
-from pcbdata.env.rollout import run_episode
+from pcbdata.agents.rollout import run_episode
+from pcbdata.agents.scripted import ScriptedAgent
 
 GEOMETRY_VIOLATIONS = {"clearance", "shorting_items", "tracks_crossing", "copper_edge_clearance",
                        "hole_clearance", "hole_to_hole"}

@@ -14,7 +14,7 @@ from gymnasium.utils.env_checker import check_env
 
 import pcbdata.env
 from pcbdata.cli import main
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 
 D2_CUSTOM = {"min_pad_spacing_mm": 4.0}
 
@@ -25,7 +25,7 @@ def built_sets(tmp_path_factory) -> dict[str, tuple]:
     boards each, with their manifests (no KiCad check, no publication: the boards are the
     generators' and the environment only reads them)."""
     from pcbdata.builders import SyntheticOptions, build_d1, build_d2
-    from pcbdata.configs import d1_config, d2_config
+    from pcbdata.spec.configs import d1_config, d2_config
 
     options = SyntheticOptions(splits=["test"], count=3, check=False, publish=False,
                                workers=1, log=lambda *_: None)
@@ -37,7 +37,7 @@ def built_sets(tmp_path_factory) -> dict[str, tuple]:
 
 
 def test_the_configs_are_outside_the_registry(built_sets):
-    from pcbdata.configs import registry
+    from pcbdata.spec.configs import registry
 
     names = [name for _, name in built_sets.values()]
     assert names[0].startswith("d2-hard-custom-") and names[1] == "d1-g10-random-walk"

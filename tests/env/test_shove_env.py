@@ -47,7 +47,7 @@ def _episode(env, board_id: str):
     """The scripted agent with the push_n_shove fallback; returns (actions, rewards, shoves):
     per push_n_shove step (step index, router info, violations before and after, clusters
     before and after, track rows before and after)."""
-    from pcbdata.env.agents import ShovingScriptedAgent
+    from pcbdata.agents.scripted import ShovingScriptedAgent
 
     agent, u = ShovingScriptedAgent(seed=0), env.unwrapped
     obs, info = env.reset(options={"board_id": board_id})

@@ -9,7 +9,7 @@ import signal
 import numpy as np
 import pytest
 
-from pcbdata.env.agents import RandomAgent, action
+from pcbdata.agents.scripted import RandomAgent, action
 from pcbdata.env.types import (
     FINISH,
     IDLE,

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pcbdata.env.rl import make_vector_env, sample_action
+from pcbdata.env.wrappers.rl import make_vector_env, sample_action
 from tests.processes import marked_processes, new_marker, wait_for
 
 N = 2

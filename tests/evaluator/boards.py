@@ -10,8 +10,8 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from pcbdata.board import Arc, Board, Pad, Rules, Track, Via, mm_to_nm
-from pcbdata.kicad_writer import board_files, board_text
+from pcbdata.model.board import Arc, Board, Pad, Rules, Track, Via, mm_to_nm
+from pcbdata.model.kicad_writer import board_files, board_text
 
 RULES = Rules(clearance=mm_to_nm(0.3), track_width=mm_to_nm(0.3), edge_clearance=mm_to_nm(0.3),
               via_diameter=mm_to_nm(1.2), via_drill=mm_to_nm(0.6))

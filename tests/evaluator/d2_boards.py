@@ -19,8 +19,8 @@ from pathlib import Path
 
 from boards import write_board, write_instance
 
-from pcbdata.board import Arc, Track, Via, mm_to_nm
 from pcbdata.generators import D2Generator, D2Params
+from pcbdata.model.board import Arc, Track, Via, mm_to_nm
 
 ZONES = """\t(zone
 \t\t(net 0)

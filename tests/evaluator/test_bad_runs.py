@@ -9,7 +9,7 @@ import pytest
 from boards import ROUTE_A, ROUTE_B, base_board, routed, write_board, write_instance
 
 from pcbdata.cli import main
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 from pcbdata.evaluator.runs import evaluate_set
 from tests.helpers import seal_set
 

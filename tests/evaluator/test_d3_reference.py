@@ -33,7 +33,7 @@ def d3a_set(tmp_path_factory, kicad_pool):
         pytest.skip(f"the D3-A reference check needs the PCBench snapshot at {SHARED_PCBENCH} "
                     f"(absent on this machine)")
     from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
 
     root = tmp_path_factory.mktemp("d3a")
     source = root / "pcbench"
@@ -79,7 +79,7 @@ def d3b_test_set(tmp_path_factory, kicad_pool):
         pytest.skip(f"the D3-B reference check needs the PCBench snapshot at {SHARED_PCBENCH} "
                     f"(absent on this machine)")
     from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
 
     root = tmp_path_factory.mktemp("d3b")
     source = root / "pcbench"
@@ -94,8 +94,8 @@ def d3b_test_set(tmp_path_factory, kicad_pool):
 
 @pytest.mark.slow
 def test_d3b_reference_row(d3b_test_set, tmp_path):
+    from pcbdata.core.hashing import sha256_file
     from pcbdata.evaluator import evaluate_set
-    from pcbdata.hashing import sha256_file
 
     released = d3b_test_boards()
     for folder in (d3b_test_set / "d3-a" / "test").iterdir():

@@ -39,7 +39,7 @@ def _routed_synthetic(root: Path, config: str, pool) -> tuple[Path, Path]:
 
 def _d3_reference(root: Path, pool) -> tuple[Path, Path]:
     from pcbdata.curation.build import build
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
 
     source = root / "pcbench"
     source.mkdir()

@@ -11,9 +11,9 @@ import pytest
 from boards import ROUTE_A, ROUTE_B, base_board, routed, write_board, write_instance
 
 from pcbdata.cli import main
-from pcbdata.configs import get_config
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 from pcbdata.evaluator.runs import CACHE_NAME, evaluate_set
+from pcbdata.spec.configs import get_config
 from tests.helpers import seal_set
 
 BOARDS = ("b0", "b1", "b2", "b3")

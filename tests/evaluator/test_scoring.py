@@ -17,7 +17,7 @@ from boards import (
     write_instance,
 )
 
-from pcbdata.board import Arc, mm_to_nm
+from pcbdata.model.board import Arc, mm_to_nm
 
 # bare board: U0 = 2 (one open edge per net), f0 = 3 ln(1 + 2/2) + 2 ln(1 + 1/2), N = 3
 PHI_BARE = -2 - (3 * math.log(2) + 2 * math.log(1.5))

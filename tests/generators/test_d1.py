@@ -5,12 +5,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pcbdata.board import Via, mm_to_nm
-from pcbdata.connector import connector_arrays, npz_bytes
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 from pcbdata.generators import D1Generator, D1Params
 from pcbdata.kicad import DrcReport
-from pcbdata.kicad_writer import board_files
+from pcbdata.model.board import Via, mm_to_nm
+from pcbdata.model.connector import connector_arrays, npz_bytes
+from pcbdata.model.kicad_writer import board_files
 from tests.helpers import outline_in_file, pads_in_file, write_board
 
 GRIDS = (10, 50, 100, 200, 500)

@@ -5,11 +5,11 @@ from collections import Counter
 
 import pytest
 
-from pcbdata.board import mm_to_nm
-from pcbdata.errors import GenerationError, UserError
+from pcbdata.core.errors import GenerationError, UserError
 from pcbdata.generators import D2Generator, D2Params
 from pcbdata.kicad import DrcReport
-from pcbdata.presets import d2_level, d2_levels, parse_override
+from pcbdata.model.board import mm_to_nm
+from pcbdata.spec.presets import d2_level, d2_levels, parse_override
 from tests.helpers import pads_in_file, write_board
 
 N_TRAIN = 10_000
@@ -167,7 +167,7 @@ def test_a_board_that_cannot_be_placed_is_an_error_not_a_hang():
     # give up after a bounded number of tries when asked for more pads than can fit.
     import time
 
-    from pcbdata.rng import Stream
+    from pcbdata.core.rng import Stream
 
     generator = D2Generator(D2Params())
     start = time.perf_counter()

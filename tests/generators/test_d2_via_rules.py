@@ -8,11 +8,11 @@ from dataclasses import replace
 
 import pytest
 
-from pcbdata.board import mm_to_nm
 from pcbdata.cli import main
 from pcbdata.evaluator import score
 from pcbdata.generators import D1Generator, D1Params, D2Generator, D2Params
-from pcbdata.kicad_writer import mm
+from pcbdata.model.board import mm_to_nm
+from pcbdata.model.kicad_writer import mm
 from tests.helpers import write_board
 
 # Two nets of two through-hole pads: test board 37 has NET1 running nearly level across the

@@ -1,6 +1,6 @@
 """In-process DRC through the engine: real KiCad, each board with its own project rules."""
-from pcbdata.board import Board, Pad, Rules, mm_to_nm
 from pcbdata.kicad import DrcReport, parse_drc_report
+from pcbdata.model.board import Board, Pad, Rules, mm_to_nm
 from tests.helpers import write_board
 
 

@@ -84,7 +84,7 @@ def _assert_parity(paths) -> None:
 @needs_library
 def test_same_violations_on_routed_d2_test_boards(tmp_path):
     from pcbdata.generators import D2Generator
-    from pcbdata.presets import d2_level
+    from pcbdata.spec.presets import d2_level
 
     level = d2_level("default")
     generator = D2Generator(level.params)

@@ -75,7 +75,7 @@ def test_memory_limit_is_a_named_failure_and_the_worker_is_replaced():
 
 
 def test_memory_limit_default_and_environment_variable(monkeypatch):
-    from pcbdata.errors import UserError
+    from pcbdata.core.errors import UserError
 
     monkeypatch.delenv("PCBDATA_WORKER_MEMORY_MB", raising=False)
     assert KicadPool(workers=1).memory_limit_mb == 4096

@@ -1,5 +1,5 @@
 """Small real board sets for the publication tests: D1, D2 and a D3-shaped config, written
-with the real generators and KiCad writer and a manifest that follows `pcbdata.manifest`."""
+with the real generators and KiCad writer and a manifest that follows `pcbdata.model.manifest`."""
 from __future__ import annotations
 
 import io
@@ -7,12 +7,13 @@ from pathlib import Path
 
 import numpy as np
 
-from pcbdata import kicad_writer, presets
-from pcbdata.fsutil import write_atomic
+from pcbdata.core.fsutil import write_atomic
+from pcbdata.core.hashing import sha256_bytes
 from pcbdata.generators.d1 import D1Generator, D1Params
 from pcbdata.generators.d2 import D2Generator
-from pcbdata.hashing import sha256_bytes
-from pcbdata.manifest import FORMAT, write_manifest
+from pcbdata.model import kicad_writer
+from pcbdata.model.manifest import FORMAT, write_manifest
+from pcbdata.spec import presets
 
 SIZES = {"train": 4, "validation": 2, "test": 3}
 

@@ -11,7 +11,7 @@ import pytest
 
 import pcbdata
 from pcbdata.cli import main
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 from pcbdata.publish import materialize
 
 SHARD = "d2/test-00000-of-00001.parquet"

@@ -10,8 +10,8 @@ import pytest
 import yaml
 
 import pcbdata
-from pcbdata.errors import UserError
-from pcbdata.manifest import read_manifest
+from pcbdata.core.errors import UserError
+from pcbdata.model.manifest import read_manifest
 from pcbdata.publish import verify_published
 
 
@@ -153,9 +153,9 @@ def test_an_empty_split_verifies_and_loads_as_an_empty_dataset(tmp_path):
     """A small corpus can leave a D3 tier empty: no folders on disk, zero-row shards. `datasets`
     cannot read a split with no rows, so `pcbdata.load` returns an empty Dataset with the
     columns."""
-    from pcbdata.manifest import write_manifest
+    from pcbdata.model.manifest import write_manifest
     from pcbdata.publish import publish_set
-    from pcbdata.verify import verify_set
+    from pcbdata.publish.verify_set import verify_set
     from tests.publish.setbuilder import _d3_config, make_set
 
     manifest = make_set(tmp_path, d2={"test": 2}, d1={"test": 2}, d3=True)

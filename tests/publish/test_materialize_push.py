@@ -7,8 +7,8 @@ import pytest
 
 import pcbdata
 from pcbdata.cli import main
-from pcbdata.errors import UserError
-from pcbdata.manifest import read_manifest
+from pcbdata.core.errors import UserError
+from pcbdata.model.manifest import read_manifest
 from pcbdata.publish import iter_boards, materialize, materialize_row, row_files
 
 

@@ -8,10 +8,10 @@ from pathlib import Path
 import pytest
 
 from pcbdata.builders import SyntheticOptions, build_configs
-from pcbdata.configs import get_config
-from pcbdata.manifest import read_manifest
+from pcbdata.model.manifest import read_manifest
 from pcbdata.publish import verify_published
 from pcbdata.publish.manifests import SUFFIX, compare, read_release
+from pcbdata.spec.configs import get_config
 
 MANIFESTS = Path(__file__).resolve().parents[2] / "pcbdata" / "resources" / "releases"
 SYNTHETIC = sorted(p for p in MANIFESTS.glob(f"*{SUFFIX}")

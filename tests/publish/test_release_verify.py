@@ -11,9 +11,9 @@ import pytest
 
 import pcbdata
 from pcbdata.cli import main
-from pcbdata.errors import UserError
-from pcbdata.fsutil import sha256_file
-from pcbdata.manifest import read_manifest, write_manifest
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import sha256_file
+from pcbdata.model.manifest import read_manifest, write_manifest
 from pcbdata.publish import publish_set
 from pcbdata.publish.manifests import check_release, pinned_release
 from pcbdata.resources import resource_path

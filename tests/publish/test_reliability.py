@@ -10,9 +10,9 @@ import pytest
 
 import pcbdata
 from pcbdata.cli import main
-from pcbdata.errors import UserError
-from pcbdata.hashing import sha256_file
-from pcbdata.manifest import read_manifest, write_manifest
+from pcbdata.core.errors import UserError
+from pcbdata.core.hashing import sha256_file
+from pcbdata.model.manifest import read_manifest, write_manifest
 from pcbdata.publish import publish_set, publisher, verify_published
 from tests.publish.setbuilder import make_set
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import re
 
-from pcbdata.sexpr_text import block_end
+from pcbdata.core.sexpr_text import block_end
 
 _PLACE = re.compile(r"^(\s*\(place\s+(\S+)\s+\S+\s+\S+\s+)back(\s)", re.M)
 _COMPONENT = re.compile(r"^(\s*)\(component\s+(\S+)\s*$", re.M)

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from pcbdata.errors import EngineError
+from pcbdata.core.errors import EngineError
 
 #: (board_id or None for the environment's seeded pick, seed) of one episode.
 EpisodeSpec = tuple[str | None, int]
@@ -115,7 +115,7 @@ def check_options(env_id: str, options: dict[str, Any]) -> None:
     import gymnasium as gym
 
     import pcbdata.env  # noqa: F401 - registers the ids
-    from pcbdata.env.instances import resolve_config
+    from pcbdata.env.generator import resolve_config
     from pcbdata.env.options import make_options
 
     spec = gym.spec(env_id)
@@ -176,7 +176,7 @@ def observation_digest(obs) -> str:
 class _Run:
     """One episode in progress: turns each (obs, ...) the environment returns into the next
     action, `FINISH` when the agent's `done` turns True (the episode is ended with
-    `finish_episode()`, as `pcbdata.env.rollout.run_episode` does), or None when the episode
+    `finish_episode()`, as `pcbdata.agents.rollout.run_episode` does), or None when the episode
     is over (terminated or truncated)."""
 
     def __init__(self, index: int, spec: EpisodeSpec, agent):

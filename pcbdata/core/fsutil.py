@@ -12,8 +12,8 @@ import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from pcbdata.errors import UserError
-from pcbdata.hashing import sha256_bytes, sha256_file  # noqa: F401 - re-exported for callers
+from pcbdata.core.errors import UserError
+from pcbdata.core.hashing import sha256_bytes, sha256_file  # noqa: F401 - re-exported for callers
 
 
 def _current_umask() -> int:

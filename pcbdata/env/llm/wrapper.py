@@ -1,7 +1,7 @@
 """Tool-using language models on the routing environment (issue 11, LLM part).
 
 `LLMWrapper(env)`: a Gymnasium wrapper whose observation is the step's message text and whose
-action is the model's reply (text, or a tool-call structure: `pcbdata.env.llm_tools`). It
+action is the model's reply (text, or a tool-call structure: `pcbdata.env.llm.tools`). It
 keeps the conversation: `messages()` is the system message (rules and the board's static part,
 once) followed by the last `turns` exchanges and the current user message (the dynamic part,
 the allowed verbs, the last `history` actions marked ok / rejected / no effect, the streak
@@ -21,8 +21,8 @@ import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import RecordConstructorArgs
 
-from pcbdata.env import llm_text
-from pcbdata.env.llm_tools import DEFAULTS, PARAMETERS, Parsed, parse_reply, tool_schema
+from pcbdata.env.llm import text as llm_text
+from pcbdata.env.llm.tools import DEFAULTS, PARAMETERS, Parsed, parse_reply, tool_schema
 from pcbdata.env.types import ACTION_TYPES, MODES
 
 #: A model returns this to end the episode early, as a scripted agent does when it has nothing

@@ -7,9 +7,9 @@ import difflib
 import shutil
 from pathlib import Path
 
-from pcbdata.configs import ConfigSpec
-from pcbdata.errors import UserError
-from pcbdata.tree import MANIFEST_NAME
+from pcbdata.core.errors import UserError
+from pcbdata.core.tree import MANIFEST_NAME
+from pcbdata.spec.configs import ConfigSpec
 
 BOARD_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
 
@@ -65,7 +65,7 @@ class GeneratorSource:
         self.board_ids = [f"board_{i:05d}" for i in range(min(count or total, total))]
 
     def folder(self, index: int, work: Path) -> Path:
-        from pcbdata.kicad_writer import board_files
+        from pcbdata.model.kicad_writer import board_files
 
         assert self._spec.seed is not None  # synthetic configs have a seed
         instance = self._generator.generate(self._spec.seed, self._split, index)
@@ -84,16 +84,16 @@ def _split_size(spec: ConfigSpec, split: str) -> int:
 def resolve_config(name: str, root) -> ConfigSpec:
     """The config `name` as the environment plays it: with a built set (`root`), what the set's
     manifest records for it (any config the set holds: custom D2 levels, D1 placements, D3
-    tiers); without one, the registry's (`pcbdata.configs.get_config`). A set without a
+    tiers); without one, the registry's (`pcbdata.spec.configs.get_config`). A set without a
     manifest (boards written by hand) serves the registry's configs it has folders for."""
-    from pcbdata.configs import config_from_manifest, get_config
+    from pcbdata.spec.configs import config_from_manifest, get_config
 
     if root is None:
         return get_config(name)
     root = Path(root)
     manifest = root / MANIFEST_NAME
     if manifest.is_file():
-        from pcbdata.manifest import read_manifest
+        from pcbdata.model.manifest import read_manifest
 
         held = read_manifest(root).get("configs", {})
         if name not in held:

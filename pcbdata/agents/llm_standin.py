@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import json
 
-from pcbdata.env.agents import ScriptedAgent
-from pcbdata.env.llm import STOP, LLMWrapper
-from pcbdata.env.llm_tools import action_call, call_text
+from pcbdata.agents.scripted import ScriptedAgent
+from pcbdata.env.llm.tools import action_call, call_text
+from pcbdata.env.llm.wrapper import STOP, LLMWrapper
 
 STYLES = ("text", "tool_calls", "bare", "alternate")
 

@@ -14,7 +14,7 @@ from typing import TypeVar
 
 import numpy as np
 
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 
 T = TypeVar("T")
 

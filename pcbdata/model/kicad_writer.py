@@ -8,9 +8,9 @@ from __future__ import annotations
 import hashlib
 import uuid
 
-from pcbdata.board import Board, Pad, Rules
-from pcbdata.textio import canonical_json
-from pcbdata.tree import BOARD_FILE, PROJECT_FILE, RULES_FILE
+from pcbdata.core.textio import canonical_json
+from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE, RULES_FILE
+from pcbdata.model.board import Board, Pad, Rules
 
 KICAD_PCB_VERSION = 20241229  # the file format KiCad 9.0 writes
 GENERATOR = "pcbdata"

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import gymnasium as gym
 
-from pcbdata.env.rollout import _write_atomic
+from pcbdata.core.fsutil import write_atomic
 
 
 class RunRecorder(gym.Wrapper):
@@ -71,4 +71,4 @@ class RunRecorder(gym.Wrapper):
             os.replace(tmp, folder / f"{rollout}.kicad_pcb")
         except Exception as exc:  # noqa: BLE001 - a dead engine: the rollout has no board
             record["save_error"] = str(exc)
-        _write_atomic(folder / f"{rollout}.json", json.dumps(record, indent=1, sort_keys=True))
+        write_atomic(folder / f"{rollout}.json", json.dumps(record, indent=1, sort_keys=True))

@@ -23,11 +23,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
 
-AGENTS = {"scripted": "pcbdata.env.agents:ScriptedAgent",
-          "scripted-shove": "pcbdata.env.agents:ShovingScriptedAgent",
-          "random": "pcbdata.env.agents:RandomAgent"}
+AGENTS = {"scripted": "pcbdata.agents.scripted:ScriptedAgent",
+          "scripted-shove": "pcbdata.agents.scripted:ShovingScriptedAgent",
+          "random": "pcbdata.agents.scripted:RandomAgent"}
 
 
 def make_agent(spec: str, seed: int):
@@ -133,7 +133,7 @@ def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, 
     `workers` of them; a Ray executor uses every CPU of its cluster); returns a summary.
     Progress lines go to `log`. `root` and `out` are made absolute here: on a Ray cluster they
     must be the same path on every node (a shared filesystem)."""
-    from pcbdata.env.instances import resolve_config
+    from pcbdata.env.generator import resolve_config
     from pcbdata.env.registry import env_id_for
     from pcbdata.evaluator.runs import list_instances
     from pcbdata.executors import resolve

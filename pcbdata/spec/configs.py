@@ -10,7 +10,7 @@ Names: `d1-g<grid>` (`-<placement>` unless uniform), `d2` (the benchmark level),
 `d2-<level>-custom-<hash>` (a level with `--set` overrides; hash of the parameters), `d3-<tier>`.
 
 Seed coupling, stated once: every synthetic board draws from its own stream
-`SeedSequence(entropy=seed, spawn_key=(family, variant, split, index))` (`pcbdata.rng`). D1's
+`SeedSequence(entropy=seed, spawn_key=(family, variant, split, index))` (`pcbdata.core.rng`). D1's
 variant is the grid size, so grids are independent. **D2 levels share one stream per board
 index** (variant 0 for every level): board i of `d2-hard` starts from the same random numbers as
 board i of `d2`. Levels differ through their parameters only, so a level comparison is paired
@@ -24,8 +24,8 @@ import re
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from pcbdata.errors import UserError
-from pcbdata.hashing import sha256_text
+from pcbdata.core.errors import UserError
+from pcbdata.core.hashing import sha256_text
 
 if TYPE_CHECKING:
     from pcbdata.generators.base import Generator
@@ -107,7 +107,7 @@ def d2_name(level: str, parameters: dict | None = None) -> str:
 def d1_config(grid: int, placement: str | None = None) -> ConfigSpec:
     """The D1 config of any grid size and placement (default: the preset's)."""
     from pcbdata.generators import D1Params
-    from pcbdata.presets import d1_preset
+    from pcbdata.spec.presets import d1_preset
 
     preset = d1_preset()
     placement = placement or preset.placement
@@ -121,7 +121,7 @@ def d1_config(grid: int, placement: str | None = None) -> ConfigSpec:
 
 def d2_config(level: str = "default", overrides: dict | None = None) -> ConfigSpec:
     """The D2 config of a level, with parameters overridden (`--set`) if any."""
-    from pcbdata.presets import d2_level
+    from pcbdata.spec.presets import d2_level
 
     lv = d2_level(level, overrides)
     parameters = lv.params.as_dict()
@@ -136,7 +136,7 @@ def d2_config(level: str = "default", overrides: dict | None = None) -> ConfigSp
 def _d3_configs() -> list[ConfigSpec]:
     from dataclasses import asdict
 
-    from pcbdata.curation.recipe import load_recipe
+    from pcbdata.spec.recipe import load_recipe
 
     recipe = load_recipe()
     tiers = recipe.tiers
@@ -151,7 +151,7 @@ def _d3_configs() -> list[ConfigSpec]:
 
 def registry() -> dict[str, ConfigSpec]:
     """Every named config: D1 at the preset's grids (uniform), D2 at every level, D3 tiers."""
-    from pcbdata.presets import d1_preset, d2_levels
+    from pcbdata.spec.presets import d1_preset, d2_levels
 
     specs = [d1_config(grid) for grid in d1_preset().grid_sizes]
     levels = d2_levels()

@@ -1,5 +1,5 @@
-"""Entity features of the RL wrapper (`pcbdata.env.rl`): the environment's nested observation
-as one fixed-size table, one row per entity, for standard RL libraries.
+"""Entity features of the RL wrapper (`pcbdata.env.wrappers.rl`): the environment's nested
+observation as one fixed-size table, one row per entity, for standard RL libraries.
 
 Rows come in fixed blocks, one per entity family (`FAMILIES`, sizes from the environment's
 capacities); each row is `COLUMNS` (float32), with the family id in `entity_type`, up to two

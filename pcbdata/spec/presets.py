@@ -5,10 +5,10 @@ import difflib
 import tomllib
 from dataclasses import dataclass
 
-from pcbdata.errors import UserError
+from pcbdata.core.errors import UserError
+from pcbdata.core.rng import check_seed
 from pcbdata.generators.d2 import D2Params
 from pcbdata.resources import resource_path
-from pcbdata.rng import check_seed
 
 
 def _load(name: str) -> dict:
@@ -47,13 +47,6 @@ class D2Level:
     splits: dict[str, int]
     overrides: dict
 
-    @property
-    def config_name(self) -> str:
-        """`d2` for the benchmark level, `d2-<level>` otherwise; overrides add a short hash
-        (`pcbdata.configs.d2_name`)."""
-        from pcbdata.configs import d2_name
-
-        return d2_name(self.name, self.params.as_dict() if self.overrides else None)
 
 
 def d2_levels() -> dict[str, dict]:

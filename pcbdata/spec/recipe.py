@@ -13,8 +13,8 @@ from dataclasses import MISSING, asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from pcbdata.errors import UserError
-from pcbdata.hashing import sha256_bytes
+from pcbdata.core.errors import UserError
+from pcbdata.core.hashing import sha256_bytes
 from pcbdata.resources import resource_path
 
 DEFAULT_RECIPE = "d3.toml"

@@ -1,7 +1,7 @@
 """The routing environment for standard RL libraries (docs/env_rl.md).
 
 `RLWrapper` turns the environment's nested observation into fixed-size arrays (one row per
-entity, `pcbdata.env.features`) and its Dict action into `MultiDiscrete([7, K, 3])`: (type,
+entity, `pcbdata.env.wrappers.features`) and its Dict action into `MultiDiscrete([7, K, 3])`: (type,
 index, mode), K = max(max_nets, max_candidates); the index is the net for `net_select`, the
 candidate for `start_route` / `make_line` / `make_via`, ignored otherwise. `action_masks()`
 returns the flat mask sb3-contrib's MaskablePPO takes for a MultiDiscrete space (the per-
@@ -19,7 +19,6 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from pcbdata.env import features
 from pcbdata.env.types import (
     ACTION_TYPES,
     FINISH,
@@ -29,6 +28,7 @@ from pcbdata.env.types import (
     NET_SELECT,
     START_ROUTE,
 )
+from pcbdata.env.wrappers import features
 
 #: Action types whose index is the net / a candidate; types reading the mode.
 NET_INDEXED = (NET_SELECT,)
@@ -194,7 +194,7 @@ def make_rl_env(config: str = "d2", runs_dir: str | None = None, boards=None, ro
     """`RoutingEnv(config=..., **options)` wrapped by `RLWrapper`. With `runs_dir`, resets
     without options walk `boards` (ids; default all) `rollouts` times and each finished
     episode is written as `runs_dir/<board_id>/<rollout>.kicad_pcb` + JSON
-    (`pcbdata.env.recorder`)."""
+    (`pcbdata.env.wrappers.recorder`)."""
     from pcbdata.env.env import RoutingEnv
 
     if boards is not None and runs_dir is None:
@@ -203,7 +203,7 @@ def make_rl_env(config: str = "d2", runs_dir: str | None = None, boards=None, ro
         raise EnvValueError("boards= schedules recorded episodes: give runs_dir= too")
     env: gym.Env = RLWrapper(RoutingEnv(config=config, **options))
     if runs_dir is not None:
-        from pcbdata.env.recorder import RunRecorder
+        from pcbdata.env.wrappers.recorder import RunRecorder
 
         env = RunRecorder(env, runs_dir, boards, rollouts, agent)
     return env

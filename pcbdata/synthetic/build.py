@@ -17,16 +17,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pcbdata import __version__
-from pcbdata.errors import EngineError, GenerationError, UserError, ValidationError
-from pcbdata.executors import Executor, TaskPool, resolve
-from pcbdata.fsutil import folder_lock, remove_stale_temps, write_atomic, write_dir_atomic
-from pcbdata.generators.base import Generator, SplitArrays
-from pcbdata.hashing import sha256_bytes
-from pcbdata.kicad.drc_report import DrcReport
-from pcbdata.kicad_writer import board_files
-from pcbdata.manifest import FORMAT, merge_configs, write_manifest
-from pcbdata.rng import SEED_SCHEME
-from pcbdata.tree import (
+from pcbdata.core.errors import EngineError, GenerationError, UserError, ValidationError
+from pcbdata.core.fsutil import folder_lock, remove_stale_temps, write_atomic, write_dir_atomic
+from pcbdata.core.hashing import sha256_bytes
+from pcbdata.core.rng import SEED_SCHEME
+from pcbdata.core.tree import (
     BOARD_FILE,
     MANIFEST_NAME,
     PROJECT_FILE,
@@ -40,10 +35,15 @@ from pcbdata.tree import (
     folder_holds,
     split_dir,
 )
+from pcbdata.executors import Executor, TaskPool, resolve
+from pcbdata.generators.base import Generator, SplitArrays
+from pcbdata.kicad.drc_report import DrcReport
+from pcbdata.model.kicad_writer import board_files
+from pcbdata.model.manifest import FORMAT, merge_configs, write_manifest
 
 STATE_DIR = SYNTHETIC_STATE_DIR
 _CHUNK = 128
-GENERATE = "pcbdata.synthetic_build:generate_chunk"
+GENERATE = "pcbdata.synthetic.build:generate_chunk"
 _GENERATE_TIMEOUT = 600.0  # seconds per chunk of _CHUNK boards (about 0.2 s when idle)
 
 
@@ -286,7 +286,7 @@ def _keep_other_splits(root: Path, built: dict[str, dict]) -> None:
     parameters put in the manifest (and on disk)."""
     if not (root / MANIFEST_NAME).exists():
         return
-    from pcbdata.manifest import read_manifest
+    from pcbdata.model.manifest import read_manifest
 
     old_configs = read_manifest(root).get("configs", {})
     for name, config in built.items():

@@ -11,7 +11,7 @@ gives the same bytes:
                                                                          <fact>: value, ...}}}}}}}
 
 Files of a board live in `DIR/<config>/<split>/<board_id>/`; split-level arrays in
-`DIR/<config>/` (`pcbdata.tree`). A set is complete exactly when its manifest exists: the
+`DIR/<config>/` (`pcbdata.core.tree`). A set is complete exactly when its manifest exists: the
 manifest is written last, atomically.
 
 **One vocabulary of board facts** (`BOARD_FACTS`, the parquet columns): `n_nets`, `n_pads`,
@@ -28,10 +28,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from pcbdata.errors import UserError
-from pcbdata.fsutil import write_atomic
-from pcbdata.textio import canonical_json
-from pcbdata.tree import MANIFEST_NAME, manifest_path
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import write_atomic
+from pcbdata.core.textio import canonical_json
+from pcbdata.core.tree import MANIFEST_NAME, manifest_path
 
 __all__ = ["FORMAT", "MANIFEST_NAME", "BOARD_FACTS", "D3_FACT_NAMES", "manifest_path", "dumps",
            "read_manifest", "write_manifest", "merge_configs", "board_fact", "d3_facts"]

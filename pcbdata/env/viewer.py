@@ -1,5 +1,5 @@
 """`render_mode="rgb_array"`: the environment's current state as drawing records
-(`pcbdata.drawing`), from what the environment already holds (no KiCad round trip)."""
+(`pcbdata.core.drawing`), from what the environment already holds (no KiCad round trip)."""
 from __future__ import annotations
 
 from pcbdata.env.observation import ratsnest

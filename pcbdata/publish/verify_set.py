@@ -6,8 +6,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from pcbdata.fsutil import sha256_file
-from pcbdata.manifest import MANIFEST_NAME, read_manifest
+from pcbdata.core.fsutil import sha256_file
+from pcbdata.model.manifest import MANIFEST_NAME, read_manifest
 
 # A `hf download --local-dir` of a set adds its metadata folder and the Hub repo's attributes.
 HUB_DOWNLOAD_ENTRIES = (".cache", ".gitattributes")
@@ -48,7 +48,7 @@ def allowed_top_entries() -> set[str]:
         STATE_NAME,
     )
     from pcbdata.publish.push import EXTRA_TOP_FILES
-    from pcbdata.synthetic_build import STATE_DIR as SYNTHETIC_STATE_DIR
+    from pcbdata.synthetic.build import STATE_DIR as SYNTHETIC_STATE_DIR
 
     return {MANIFEST_NAME, CARD_NAME, STATE_NAME, ATTRIBUTION_NAME, PICTURES_DIR, LOCK_NAME,
             SYNTHETIC_STATE_DIR, D3_STATE_DIR, *EXTRA_TOP_FILES, *HUB_DOWNLOAD_ENTRIES}
@@ -150,7 +150,7 @@ def _unlisted_top_entries(root: Path, manifest: dict) -> list[str]:
 def _published_shards(root: Path) -> set[str]:
     """Shards the publication lists (publish.json and the card): the other files of a config
     folder that are not in the manifest."""
-    from pcbdata.errors import UserError
+    from pcbdata.core.errors import UserError
     from pcbdata.publish.card import read_card_configs
     from pcbdata.publish.layout import CARD_NAME
     from pcbdata.publish.verify import recorded_shard_hashes
