@@ -30,7 +30,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 from pcbdata.kicad.cli_tools import kicad_cli  # noqa: E402
 from pcbdata.evaluator.metrics import COUNTED_WARNINGS  # noqa: E402
-from pcbdata.evaluator.runs import evaluate_set, list_instances, list_rollouts  # noqa: E402
+from pcbdata.core.tree import list_instances  # noqa: E402
+from pcbdata.evaluator.runs import evaluate_set, list_rollouts  # noqa: E402
 
 
 def cli_counts(instance: Path, routed: Path) -> dict:

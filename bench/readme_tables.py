@@ -154,7 +154,7 @@ def explain(work: Path, config: str) -> None:
     import tempfile
 
     root = build(work, "d3" if config.startswith("d3") else "d2", 2)
-    dirs = dict(__import__("pcbdata.evaluator.runs", fromlist=["x"]).list_instances(
+    dirs = dict(__import__("pcbdata.core.tree", fromlist=["x"]).list_instances(
         root, config, "test"))
     report = work / "reports" / f"{config}-freeroute-k1" / "per_rollout.csv"
     types: collections.Counter = collections.Counter()

@@ -133,9 +133,9 @@ def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, 
     `workers` of them; a Ray executor uses every CPU of its cluster); returns a summary.
     Progress lines go to `log`. `root` and `out` are made absolute here: on a Ray cluster they
     must be the same path on every node (a shared filesystem)."""
+    from pcbdata.core.tree import list_instances
     from pcbdata.env.generator import resolve_config
     from pcbdata.env.registry import env_id_for
-    from pcbdata.evaluator.runs import list_instances
     from pcbdata.executors import resolve
 
     root, out = Path(root).resolve(), Path(out).resolve()

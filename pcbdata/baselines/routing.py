@@ -18,6 +18,7 @@ from pathlib import Path
 from pcbdata.baselines import specctra
 from pcbdata.core.errors import UserError
 from pcbdata.core.fsutil import write_atomic
+from pcbdata.core.tree import BOARD_FILE
 from pcbdata.kicad import kicad_tools_route as kicad_tools
 from pcbdata.kicad.pool import KicadPool
 
@@ -60,7 +61,7 @@ def route_set(root: str | Path, config: str, split: str, out: str | Path, router
               router_timeout: float = 120.0, limit: int | None = None,
               progress: bool = True) -> dict:
     """Routes the boards of one config/split; returns counts {routed, failed, skipped}."""
-    from pcbdata.evaluator.runs import list_instances
+    from pcbdata.core.tree import list_instances
 
     root, out = Path(root), Path(out)
     instances = list_instances(root, config, split)[: limit or None]
@@ -76,7 +77,7 @@ def route_set(root: str | Path, config: str, split: str, out: str | Path, router
                 skipped += 1
                 continue
             jobs.setdefault(plan.task, []).append(
-                (str(directory / "board.kicad_pcb"), str(directory), str(target), *plan.extra_args))
+                (str(directory / BOARD_FILE), str(directory), str(target), *plan.extra_args))
             meta.setdefault(plan.task, []).append((board_id, r, plan, sidecar))
     total = sum(len(j) for j in jobs.values())
     if progress:

@@ -26,6 +26,8 @@ BOARD_FILE = "board.kicad_pcb"
 PROJECT_FILE = "board.kicad_pro"
 RULES_FILE = "board.kicad_dru"
 REFERENCE_FILE = "reference.kicad_pcb"
+#: The files of an instance (the task): board, project, and custom rules where the family has them.
+INSTANCE_FILES = (BOARD_FILE, PROJECT_FILE, RULES_FILE)
 
 SYNTHETIC_STATE_DIR = ".pcbdata"
 CHECK_LOG = "checks.jsonl"
@@ -66,6 +68,23 @@ def board_relpath(config: str, split: str, board_id: str, name: str | None = Non
     """`config/split/board_id[/name]`: how messages and logs name a board (or one of its files)."""
     rel = f"{config}/{split}/{board_id}"
     return f"{rel}/{name}" if name else rel
+
+
+def list_instances(root: str | os.PathLike, config: str, split: str) -> list[tuple[str, Path]]:
+    """(board_id, instance folder) of a built set's config and split, in board-id order; a
+    missing config/split or an empty one is a `UserError` naming the configs the set holds."""
+    from pcbdata.core.errors import UserError
+
+    root = Path(root)
+    base = split_dir(root, config, split)
+    if not base.is_dir():
+        configs = sorted(p.name for p in root.iterdir() if p.is_dir()) if root.is_dir() else []
+        raise UserError(f"{base}: no such config/split in {root} "
+                        f"(configs: {', '.join(configs) or 'none'})")
+    boards = sorted((p.name, p) for p in base.iterdir() if (p / BOARD_FILE).is_file())
+    if not boards:
+        raise UserError(f"{base}: holds no boards")
+    return boards
 
 
 def arrays_name(split: str) -> str:

@@ -8,17 +8,15 @@ import shutil
 from pathlib import Path
 
 from pcbdata.core.errors import UserError
-from pcbdata.core.tree import MANIFEST_NAME
+from pcbdata.core.tree import INSTANCE_FILES, MANIFEST_NAME
 from pcbdata.spec.configs import ConfigSpec
-
-BOARD_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
 
 
 class SetSource:
     """Boards of `root/<config>/<split>/<board_id>/` (a built set), in board-id order."""
 
     def __init__(self, root, config: str, split: str):
-        from pcbdata.evaluator.runs import list_instances
+        from pcbdata.core.tree import list_instances
 
         listed = list_instances(Path(root), config, split)
         self.board_ids = [board_id for board_id, _ in listed]
@@ -126,7 +124,7 @@ def make_source(spec: ConfigSpec, root, split: str, rows, count: int | None):
 
 def instance_files(folder: Path) -> tuple[str, str, str | None]:
     """(board, project, custom rules or None) of an instance folder."""
-    board, project, rules = (folder / name for name in BOARD_FILES)
+    board, project, rules = (folder / name for name in INSTANCE_FILES)
     if not board.is_file() or not project.is_file():
         raise UserError(f"{folder}: not an instance folder (needs board.kicad_pcb and "
                         f"board.kicad_pro)")

@@ -12,6 +12,7 @@ from pathlib import Path
 from pcbdata.core.errors import UserError
 from pcbdata.core.hashing import sha256_file
 from pcbdata.core.sexpr_text import cut_problem
+from pcbdata.core.tree import BOARD_FILE, INSTANCE_FILES, PROJECT_FILE
 from pcbdata.evaluator.integrity import rollout_problems
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, raw_counts, rollout_metrics
 from pcbdata.executors import Executor, TaskPool, resolve
@@ -24,7 +25,6 @@ from pcbdata.executors import Executor, TaskPool, resolve
 EVALUATOR_VERSION = "3.0.0"
 MEASURE = "pcbdata.kicad.scoring:measure"
 SCORE = "pcbdata.evaluator.core:score_task"
-INSTANCE_FILES = ("board.kicad_pcb", "board.kicad_pro", "board.kicad_dru")
 
 
 def instance_dir(instance: str | Path) -> Path:
@@ -33,7 +33,7 @@ def instance_dir(instance: str | Path) -> Path:
     path = Path(instance)
     if path.is_file():
         path = path.parent
-    if not (path / "board.kicad_pcb").is_file() or not (path / "board.kicad_pro").is_file():
+    if not (path / BOARD_FILE).is_file() or not (path / PROJECT_FILE).is_file():
         raise UserError(f"{instance}: not an instance directory (needs board.kicad_pcb and "
                         f"board.kicad_pro)")
     return path
@@ -58,7 +58,7 @@ MIN_SIZE_LIMIT = 1 << 20
 
 def size_limit(directories: Iterable[Path]) -> int:
     """The largest submitted file accepted with these instances (bytes)."""
-    largest = max((Path(d) / "board.kicad_pcb").stat().st_size for d in directories)
+    largest = max((Path(d) / BOARD_FILE).stat().st_size for d in directories)
     return max(MIN_SIZE_LIMIT, SIZE_FACTOR * largest)
 
 
@@ -172,7 +172,7 @@ class Evaluator:
             if key not in self._bare and key not in todo:
                 todo[key] = directory
         keys = list(todo)
-        jobs = [(str(todo[k] / "board.kicad_pcb"), str(todo[k])) for k in keys]
+        jobs = [(str(todo[k] / BOARD_FILE), str(todo[k])) for k in keys]
         for outcome in self.pool.map(MEASURE, jobs):
             directory = todo[keys[outcome.index]]
             if not outcome.ok or not outcome.value.get("loaded"):

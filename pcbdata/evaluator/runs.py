@@ -20,6 +20,7 @@ from pathlib import Path
 from pcbdata.core.errors import UserError
 from pcbdata.core.fsutil import folder_lock, write_atomic
 from pcbdata.core.hashing import sha256_file
+from pcbdata.core.tree import REFERENCE_FILE, list_instances
 from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, complete, instance_hash
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, pick_best
 from pcbdata.evaluator.setcheck import mark, refuse_unverified, set_identity
@@ -48,19 +49,6 @@ STORED_FIELDS = ("status", "reason", "raw", "sha256", "score_seconds")
 
 def natural_key(name: str) -> list:
     return [int(p) if p.isdigit() else p for p in re.split(r"(\d+)", name)]
-
-
-def list_instances(root: Path, config: str, split: str) -> list[tuple[str, Path]]:
-    """(board_id, instance directory) of a built set's config and split, in board-id order."""
-    base = root / config / split
-    if not base.is_dir():
-        configs = sorted(p.name for p in root.iterdir() if p.is_dir()) if root.is_dir() else []
-        raise UserError(f"{base}: no such config/split in {root} "
-                        f"(configs: {', '.join(configs) or 'none'})")
-    boards = sorted((p.name, p) for p in base.iterdir() if (p / "board.kicad_pcb").is_file())
-    if not boards:
-        raise UserError(f"{base}: holds no boards")
-    return boards
 
 
 # A sidecar is a few fields; a bigger one is not read (it would be read whole into memory).
@@ -407,7 +395,7 @@ def _plan(instances: list[tuple[str, Path]], runs: Path | None, k: int) -> Plan:
     plan = []
     for board_id, directory in instances:
         if runs is None:
-            ref = directory / "reference.kicad_pcb"
+            ref = directory / REFERENCE_FILE
             if not ref.is_file():
                 raise UserError(f"{directory}: no reference.kicad_pcb (only D3 configs have "
                                 f"reference boards)")

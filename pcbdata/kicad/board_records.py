@@ -12,14 +12,15 @@ import shutil
 import tempfile
 
 from pcbdata.core.ratsnest import open_pairs
+from pcbdata.core.tree import BOARD_FILE
 from pcbdata.kicad.basics import load_board, stage_with_project
-from pcbdata.kicad.routing_session import (
-    _graphics,
-    _outline,
-    _pad_record,
-    _track_record,
-    _violations,
-    _zones,
+from pcbdata.kicad.board_reading import (
+    graphic_records,
+    located_violations,
+    outline_rings,
+    pad_record,
+    track_record,
+    zone_records,
 )
 from pcbdata.kicad.scoring import copper_labels
 
@@ -41,15 +42,15 @@ def _records(board) -> dict:
     layers = {board.GetLayerName(i): int(i) for i in board.GetEnabledLayers().CuStack()}
     names = {lid: name for name, lid in layers.items()}
     pad_items, tracks = list(board.GetPads()), list(board.GetTracks())
-    pads = [_pad_record(board, p, layers) for p in pad_items]
+    pads = [pad_record(board, p, layers) for p in pad_items]
     labels = copper_labels(board, pad_items + tracks + list(board.Zones()))
-    copper = [_track_record(t, names, 0) for t in tracks]
+    copper = [track_record(t, names, 0) for t in tracks]
     try:
-        outline = _outline(board)
+        outline = outline_rings(board)
     except ValueError:  # an open outline: draw the items only
         outline = []
     zones = [{"layer": z["layer"], "polygon": z["polygon"]}
-             for z in _zones(board, layers) + _graphics(board, layers)]
+             for z in zone_records(board, layers) + graphic_records(board, layers)]
     return {"layers": list(layers), "outline": outline,
             "pads": [{k: p[k] for k in ("net", "x", "y", "drill", "polygons")} for p in pads],
             "zones": zones, "tracks": [c for c in copper if c["kind"] != "via"],
@@ -62,7 +63,7 @@ def _markers(board) -> list[tuple[int, int]]:
     """Positions (nm) of KiCad's DRC errors under the board's project, unconnected items left
     out (the ratsnest shows them): the first item each violation names."""
     return sorted((round(v["positions"][0][0] * 1e6), round(v["positions"][0][1] * 1e6))
-                  for v in _violations(board) if v["severity"] == "error"
+                  for v in located_violations(board) if v["severity"] == "error"
                   and v["section"] != "unconnected" and v["positions"])
 
 
@@ -77,7 +78,7 @@ def read_board(path: str, project: str | None = None, rules: str | None = None,
         if project is not None:
             copy = stage_with_project(path, project, rules, tmp, stem="board")
         else:
-            copy = os.path.join(tmp, "board.kicad_pcb")
+            copy = os.path.join(tmp, BOARD_FILE)
             shutil.copyfile(path, copy)
         board = load_board(copy)
         records = _records(board)

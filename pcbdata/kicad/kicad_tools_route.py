@@ -22,6 +22,7 @@ import tempfile
 import time
 
 from pcbdata.core.errors import UserError
+from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE
 
 EXECUTABLE = "kct"
 #: `--seed` per rollout: the router is deterministic for a given seed.
@@ -90,9 +91,9 @@ def route_board(board_path: str, instance_dir: str, out_path: str, seed: int,
     """Routes one instance with `kct route` in a private folder; copies the routed board to
     `out_path`. Returns {ok, reason, seconds, router_seconds, router_cpu_seconds}."""
     start = time.perf_counter()
-    rules = default_rules(os.path.join(instance_dir, "board.kicad_pro"))
+    rules = default_rules(os.path.join(instance_dir, PROJECT_FILE))
     with tempfile.TemporaryDirectory(prefix="pcbdata-kct-") as tmp:
-        board = os.path.join(tmp, "board.kicad_pcb")
+        board = os.path.join(tmp, BOARD_FILE)
         shutil.copyfile(board_path, board)
         class_map = os.path.join(tmp, "net_classes.json")
         with open(board, encoding="utf-8") as handle:

@@ -14,9 +14,17 @@ from __future__ import annotations
 import os
 import shutil
 
-from pcbdata.kicad.basics import board_drc_text
+from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE, RULES_FILE
 from pcbdata.kicad.basics import pcbnew_module as _pcbnew
-from pcbdata.kicad.drc_report import parse_drc_report
+from pcbdata.kicad.board_reading import (
+    graphic_records,
+    located_violations,
+    net_rules,
+    outline_rings,
+    pad_record,
+    track_record,
+    zone_records,
+)
 from pcbdata.kicad.scoring import clusters_per_net, copper_labels, copper_totals
 
 #: The one board of this worker: {"board", "layers": {name: id}, "pads": [PAD], "path"}.
@@ -28,8 +36,6 @@ _STAGED = [0]  # instances staged by this worker: each gets its own folder
 #: whatever the worker ran before.
 UUID_SEED = 20250301
 
-INSTANCE_FILES = {"board.kicad_pcb": ".kicad_pcb", "board.kicad_pro": ".kicad_pro",
-                  "board.kicad_dru": ".kicad_dru"}
 
 
 def _board():
@@ -49,11 +55,11 @@ def _stage(board: str, project: str, rules: str | None, stage_dir: str) -> str:
     _STAGED[0] += 1
     folder = os.path.join(stage_dir, str(_STAGED[0]))
     os.makedirs(folder)
-    staged = os.path.join(folder, "board.kicad_pcb")
+    staged = os.path.join(folder, BOARD_FILE)
     shutil.copyfile(board, staged)
-    shutil.copyfile(project, os.path.join(folder, "board.kicad_pro"))
+    shutil.copyfile(project, os.path.join(folder, PROJECT_FILE))
     if rules:
-        shutil.copyfile(rules, os.path.join(folder, "board.kicad_dru"))
+        shutil.copyfile(rules, os.path.join(folder, RULES_FILE))
     return staged
 
 
@@ -73,130 +79,15 @@ def open_instance(board: str, project: str, rules: str | None, stage_dir: str) -
     return {"static": _static(loaded), "snapshot": snapshot(True)}
 
 
-def _ring(chain) -> list[tuple[int, int]]:
-    return [(int(chain.CPoint(i).x), int(chain.CPoint(i).y)) for i in range(chain.PointCount())]
-
-
-def _outline(board) -> list[list[tuple[int, int]]]:
-    """Board outline rings (outer boundaries first, then holes), nm."""
-    polys = _pcbnew().SHAPE_POLY_SET()
-    if not board.GetBoardPolygonOutlines(polys):
-        raise ValueError("the board outline (Edge.Cuts) is not a closed shape")
-    rings = [_ring(polys.COutline(i)) for i in range(polys.OutlineCount())]
-    for i in range(polys.OutlineCount()):
-        rings += [_ring(polys.CHole(i, h)) for h in range(polys.HoleCount(i))]
-    return rings
-
-
-def _net_rules(board) -> list[dict]:
-    """Every net (netcode order) with the rules its netclass resolves to (nm)."""
-    settings = board.GetDesignSettings()
-    netclasses = settings.m_NetSettings
-    out = []
-    for code, net in sorted(board.GetNetsByNetcode().items()):
-        if code <= 0:
-            continue
-        nc = netclasses.GetEffectiveNetClass(net.GetNetname())
-        out.append({"code": int(code), "name": str(net.GetNetname()),
-                    "clearance": max(int(nc.GetClearance()), int(settings.m_MinClearance)),
-                    "track_width": max(int(nc.GetTrackWidth()), int(settings.m_TrackMinWidth)),
-                    "via_diameter": int(nc.GetViaDiameter()), "via_drill": int(nc.GetViaDrill())})
-    return out
-
-
-def _polygons(poly_set) -> list[list[tuple[int, int]]]:
-    return [_ring(poly_set.COutline(i)) for i in range(poly_set.OutlineCount())]
-
-
-def _pad_record(board, pad, layers: dict[str, int]) -> dict:
-    pcbnew = _pcbnew()
-    on = [name for name, lid in layers.items() if pad.IsOnLayer(lid)]
-    principal = pad.GetPrincipalLayer()
-    size = pad.GetSize(principal)
-    shapes = {name: _polygons(pad.GetEffectivePolygon(layers[name], pcbnew.ERROR_OUTSIDE))
-              for name in on}
-    return {"net": str(pad.GetNetname()), "x": int(pad.GetPosition().x),
-            "y": int(pad.GetPosition().y), "size": (int(size.x), int(size.y)),
-            "shape": str(pad.ShowPadShape(principal)), "layers": on,
-            "drill": int(pad.GetDrillSize().x), "through_hole": pad.GetDrillSize().x > 0,
-            "orientation": float(pad.GetOrientationDegrees()),
-            "name": f"{pad.GetParentFootprint().GetReference()}:{pad.GetNumber()}",
-            "polygons": shapes}
-
-
-def _zones(board, layers: dict[str, int]) -> list[dict]:
-    out = []
-    for zone in board.Zones():
-        if zone.GetIsRuleArea():
-            continue
-        for name, lid in layers.items():
-            if zone.IsOnLayer(lid) and zone.HasFilledPolysForLayer(lid):
-                for ring in _polygons(zone.GetFilledPolysList(lid)):
-                    out.append({"net": str(zone.GetNetname()), "layer": name, "polygon": ring})
-    return out
-
-
-def _graphics(board, layers: dict[str, int]) -> list[dict]:
-    """Copper that is neither pad, track nor zone: board and footprint drawings and texts on
-    copper layers, as KiCad's own polygons (texts: their box), outlines only (holes filled)."""
-    pcbnew = _pcbnew()
-    items = list(board.GetDrawings())
-    for footprint in board.GetFootprints():
-        items += list(footprint.GraphicalItems()) + [footprint.Reference(), footprint.Value()]
-    max_error = int(board.GetDesignSettings().m_MaxError)
-    out = []
-    for item in items:
-        if hasattr(item, "IsVisible") and not item.IsVisible():
-            continue
-        net = str(item.GetNetname()) if hasattr(item, "GetNetname") else ""
-        for name, lid in layers.items():
-            if not item.IsOnLayer(lid):
-                continue
-            shape = pcbnew.SHAPE_POLY_SET()
-            item.TransformShapeToPolygon(shape, lid, 0, max_error, pcbnew.ERROR_OUTSIDE)
-            out += [{"net": net, "layer": name, "polygon": ring} for ring in _polygons(shape)
-                    if len(ring) >= 3]
-    return out
-
-
 def _static(board) -> dict:
     settings = board.GetDesignSettings()
     layers = _STATE["layers"]
-    return {"layers": list(layers), "outline": _outline(board), "nets": _net_rules(board),
-            "pads": [_pad_record(board, p, layers) for p in _STATE["pads"]],
-            "zones": _zones(board, layers), "graphics": _graphics(board, layers),
+    return {"layers": list(layers), "outline": outline_rings(board), "nets": net_rules(board),
+            "pads": [pad_record(board, p, layers) for p in _STATE["pads"]],
+            "zones": zone_records(board, layers), "graphics": graphic_records(board, layers),
             "net_count": int(board.GetNetCount()),
             "edge_clearance": int(settings.m_CopperEdgeClearance),
             "clearance": int(settings.m_MinClearance)}
-
-
-def _track_record(item, layer_names: dict[int, str], cluster: int) -> dict:
-    pcbnew = _pcbnew()
-    record = {"net": str(item.GetNetname()), "cluster": cluster}
-    if item.Type() == pcbnew.PCB_VIA_T:
-        top, bottom = item.TopLayer(), item.BottomLayer()
-        record.update(kind="via", x=int(item.GetPosition().x), y=int(item.GetPosition().y),
-                      diameter=int(item.GetWidth(top)), drill=int(item.GetDrillValue()),
-                      layers=[layer_names[top], layer_names[bottom]])
-        return record
-    record.update(kind="arc" if item.Type() == pcbnew.PCB_ARC_T else "track",
-                  layer=layer_names.get(item.GetLayer(), ""), width=int(item.GetWidth()),
-                  start=(int(item.GetStart().x), int(item.GetStart().y)),
-                  end=(int(item.GetEnd().x), int(item.GetEnd().y)))
-    if record["kind"] == "arc":
-        mid = item.GetMid()
-        record["mid"] = (int(mid.x), int(mid.y))
-    return record
-
-
-def _violations(board) -> list[dict]:
-    """KiCad's DRC as `pcbdata.kicad.scoring.drc_violations` gives it, plus the positions of
-    the items each violation names (mm, as the report prints them)."""
-    parsed = parse_drc_report(board_drc_text(board))
-    return [{"type": v.type, "severity": v.severity, "section": v.section, "nets": v.nets,
-             "no_net_item": any(i.net is None or i.net == "<no net>" for i in v.items),
-             "positions": [(i.x_mm, i.y_mm) for i in v.items]}
-            for v in parsed.violations]
 
 
 def snapshot(drc: bool = False) -> dict:
@@ -211,12 +102,12 @@ def snapshot(drc: bool = False) -> dict:
     npads = len(pads)
     names = {lid: name for name, lid in _STATE["layers"].items()}
     wl_mm, vias = copper_totals(board)
-    return {"copper": [_track_record(t, names, labels[npads + i]) for i, t in enumerate(tracks)],
+    return {"copper": [track_record(t, names, labels[npads + i]) for i, t in enumerate(tracks)],
             "pad_cluster": labels[:npads], "clusters": clusters_per_net(pads, labels[:npads]),
             "wl_mm": wl_mm,
             "vias": vias, "net_count": int(board.GetNetCount()),
             "unconnected": int(board.GetConnectivity().GetUnconnectedCount(False)),
-            "violations": _violations(board) if drc else None}
+            "violations": located_violations(board) if drc else None}
 
 
 def _add_track(board, net, layer: int, points: list, width: int) -> None:

@@ -22,6 +22,7 @@ import tempfile
 from pcbdata.core.copper_geometry import arc_length, items_outside, outline_shape
 from pcbdata.core.copper_text import copper_in_file, file_problems, kind_counts
 from pcbdata.core.sexpr_text import block_end
+from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE, RULES_FILE
 from pcbdata.kicad.basics import board_drc_text, stage_with_project
 from pcbdata.kicad.basics import pcbnew_module as _pcbnew
 from pcbdata.kicad.drc_report import NO_NET, parse_drc_report
@@ -56,8 +57,8 @@ def stage_board(board_path: str, instance_dir: str, tmp: str) -> str:
     """Copies `board_path` into `tmp` next to copies of the instance's `board.kicad_pro` (and
     `board.kicad_dru`), all under one stem, so KiCad loads the board with the instance's rules
     and never with files that came with a submission."""
-    rules = os.path.join(instance_dir, "board.kicad_dru")
-    return stage_with_project(board_path, os.path.join(instance_dir, "board.kicad_pro"),
+    rules = os.path.join(instance_dir, RULES_FILE)
+    return stage_with_project(board_path, os.path.join(instance_dir, PROJECT_FILE),
                               rules if os.path.isfile(rules) else None, tmp, stem=STEM)
 
 
@@ -522,7 +523,7 @@ def submission_problems(in_file: list[dict], items: list[dict], board) -> list[s
 
 def _measure_loaded(submitted, in_file: list[dict], instance_dir: str, tmp: str) -> dict:
     items = copper_items(submitted)
-    board = _load_staged(os.path.join(instance_dir, "board.kicad_pcb"), instance_dir,
+    board = _load_staged(os.path.join(instance_dir, BOARD_FILE), instance_dir,
                          os.path.join(tmp, "instance"))
     problems = submission_problems(in_file, items, board)
     transplant(items, board)
