@@ -104,3 +104,41 @@ def test_d3_a_scripted_boards_have_no_geometry_violation(d3_set):
             assert record["steps"] > 0
     finally:
         env.close()
+
+
+def _grid(size: int, pads: dict):
+    from pcbdata.env.agents import D1Grid
+
+    grid = D1Grid.__new__(D1Grid)
+    grid.pitch, grid.size, grid.pads = 1.0, size, pads
+    return grid
+
+
+def _assert_valid_plan(grid, paths: dict) -> None:
+    seen: dict = {}
+    for net, path in paths.items():
+        assert [path[0], path[-1]] == grid.pads[net]
+        assert all(abs(a[0] - b[0]) + abs(a[1] - b[1]) == 1 for a, b in zip(path, path[1:]))
+        for cell in path:
+            assert seen.setdefault(cell, net) == net, (cell, net)  # one net per cell
+
+
+def test_d1_plan_rips_up_a_net_that_walls_another_in():
+    """Net 0 first takes the short way under net 1's pad, which seals net 1 in; the planner
+    rips net 0 up, routes net 1 and sends net 0 around the board."""
+    from pcbdata.env.agents import plan_d1
+
+    grid = _grid(4, {0: [(0, 0), (2, 0)], 1: [(1, 0), (1, 2)]})
+    paths = plan_d1(grid, [0, 1])
+    assert sorted(paths) == [0, 1]
+    _assert_valid_plan(grid, paths)
+    assert len(paths[0]) > 5  # the long way round
+    assert grid.walled_nets() == []
+
+
+def test_d1_walled_in_pads_are_the_ceiling():
+    from pcbdata.env.agents import plan_d1
+
+    grid = _grid(4, {0: [(0, 0), (3, 3)], 1: [(1, 0), (0, 1)]})
+    assert grid.walled_nets() == [0]
+    assert sorted(plan_d1(grid, [0, 1])) == [1]
