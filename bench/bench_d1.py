@@ -4,7 +4,9 @@ Writes the first N test boards of each D1 grid from the generator (the same byte
 d1` writes), rolls the agent out k times per board with `pcbdata rollout`'s library call (2
 workers by default), scores them with `pcbdata eval`'s (`evaluate_set`, CP and Rout. of the best
 of k) and prints one row per grid: boards, CP, Rout., mean wall time per episode. The baseline
-(`--baseline`, default the scripted agent) runs in the same call on the same boards.
+(`--baseline`, default the scripted agent) runs in the same call on the same boards. Also
+counted: boards with a net walled in by other pads (`D1Grid.walled_nets`), which no agent can
+complete.
 
     python bench/bench_d1.py --limit 16 --k 5
 """
@@ -33,6 +35,25 @@ def _write(root: Path, config: str, limit: int) -> None:
         write_set(root, config, "test", limit)
 
 
+def _walled_boards(config: str, limit: int) -> int:
+    """Boards with a net that no agent can join (a pad walled in by other pads)."""
+    from pcbdata.configs import get_config
+    from pcbdata.env.agents import D1Grid
+
+    spec = get_config(config)
+    generator, count = spec.generator(), 0
+    for index in range(limit):
+        board = generator.generate(spec.seed, "test", index).board
+        pitch = 2 * board.pads[0].size
+        pads: dict = {}
+        for pad in board.pads:
+            cell = (round(pad.x / pitch - 0.75), round(pad.y / pitch - 0.75))
+            pads.setdefault(pad.net, []).append(cell)
+        size = round((board.width - 0.5 * pitch) / pitch)
+        count += bool(D1Grid.of(pitch / 1e6, size, pads).walled_nets())
+    return count
+
+
 def _grid(root: Path, work: Path, config: str, agent: str, args) -> dict:
     from pcbdata.env.rollout import run_rollouts
     from pcbdata.evaluator.runs import evaluate_set
@@ -41,22 +62,24 @@ def _grid(root: Path, work: Path, config: str, agent: str, args) -> dict:
     runs, report = work / f"runs-{name}-{config}", work / f"report-{name}-{config}"
     began = time.perf_counter()
     run_rollouts(root, config, "test", agent, args.k, runs, args.workers, limit=args.limit,
-                 log=lambda line: None)
+                 env_options={"drc": args.drc}, log=lambda line: None)
     wall = time.perf_counter() - began
     times = [json.loads(p.read_text())["time_s"] for p in runs.glob("*/*.json")]
     scored = evaluate_set(root, config, "test", report, runs=runs, k=args.k,
                           workers=args.workers, progress=False, limit=args.limit)
     s = scored["summary"]
-    return {"config": config, "agent": name, "boards": args.limit, "cp": s["cp"],
+    return {"config": config, "agent": name, "boards": args.limit,
+            "walled_in": _walled_boards(config, args.limit), "cp": s["cp"],
             "rout": s["rout"], "episode_s": statistics.mean(times) if times else None,
             "rollouts_wall_s": wall}
 
 
 def _table(rows: list[dict], k: int) -> str:
-    lines = [f"| agent | grid | boards | CP @{k} (%) | Rout. @{k} | s / episode |",
-             "| --- | --- | --- | --- | --- | --- |"]
+    lines = [f"| agent | grid | boards | walled in | CP @{k} (%) | Rout. @{k} | s / episode |",
+             "| --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
-        lines.append(f"| {r['agent']} | {r['config']} | {r['boards']} | {100 * r['cp']:.1f} | "
+        lines.append(f"| {r['agent']} | {r['config']} | {r['boards']} | {r['walled_in']} | "
+                     f"{100 * r['cp']:.1f} | "
                      f"{r['rout']:.3f} | {r['episode_s']:.3f} |")
     return "\n".join(lines)
 
@@ -68,6 +91,9 @@ def main() -> int:
     parser.add_argument("--limit", type=int, default=16, help="test boards per grid")
     parser.add_argument("--k", type=int, default=5, help="rollouts per board (CP @k)")
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--drc", default="terminal",
+                        help="the environment's drc option: 'terminal' (default; neither agent "
+                             "reads the DRC, so the boards are the same as with 'step') or 'step'")
     parser.add_argument("--grids", default=",".join(map(str, GRIDS)))
     parser.add_argument("--agent", default=AGENT)
     parser.add_argument("--baseline", default="scripted", help="'' for none")

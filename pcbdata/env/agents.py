@@ -229,6 +229,13 @@ class D1Grid:
         for row in pads:
             self.pads.setdefault(int(row[1]), []).append(self.cell(float(row[2]), float(row[3])))
 
+    @classmethod
+    def of(cls, pitch: float, size: int, pads: dict) -> D1Grid:
+        """A grid from its parts (pitch in mm, cells per side, net -> pad cells)."""
+        grid = cls.__new__(cls)
+        grid.pitch, grid.size, grid.pads = pitch, size, pads
+        return grid
+
     def cell(self, x: float, y: float) -> tuple[int, int]:
         return (round(x / self.pitch - 0.75), round(y / self.pitch - 0.75))
 

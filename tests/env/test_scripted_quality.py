@@ -109,9 +109,7 @@ def test_d3_a_scripted_boards_have_no_geometry_violation(d3_set):
 def _grid(size: int, pads: dict):
     from pcbdata.env.agents import D1Grid
 
-    grid = D1Grid.__new__(D1Grid)
-    grid.pitch, grid.size, grid.pads = 1.0, size, pads
-    return grid
+    return D1Grid.of(1.0, size, pads)
 
 
 def _assert_valid_plan(grid, paths: dict) -> None:
