@@ -69,7 +69,8 @@ def _grid(root: Path, work: Path, config: str, agent: str, args) -> dict:
                           workers=args.workers, progress=False, limit=args.limit)
     s = scored["summary"]
     return {"config": config, "agent": name, "boards": args.limit,
-            "walled_in": _walled_boards(config, args.limit), "cp": s["cp"],
+            "walled_in": _walled_boards(config, args.limit) if config.startswith("d1-") else "-",
+            "cp": s["cp"],
             "rout": s["rout"], "episode_s": statistics.mean(times) if times else None,
             "rollouts_wall_s": wall}
 
@@ -94,13 +95,14 @@ def main() -> int:
     parser.add_argument("--drc", default="terminal",
                         help="the environment's drc option: 'terminal' (default; neither agent "
                              "reads the DRC, so the boards are the same as with 'step') or 'step'")
-    parser.add_argument("--grids", default=",".join(map(str, GRIDS)))
+    parser.add_argument("--grids", default=",".join(map(str, GRIDS)),
+                        help="D1 grid sizes, or config names (d2: the 'not worse' check)")
     parser.add_argument("--agent", default=AGENT)
     parser.add_argument("--baseline", default="scripted", help="'' for none")
     parser.add_argument("--keep", help="keep boards and runs in this folder")
     parser.add_argument("--json", help="write the figures here")
     args = parser.parse_args()
-    configs = [f"d1-g{g}" for g in args.grids.split(",")]
+    configs = [f"d1-g{g}" if g.isdigit() else g for g in args.grids.split(",")]
     agents = [a for a in (args.baseline, args.agent) if a]
     load_before = Path("/proc/loadavg").read_text().strip()
     with tempfile.TemporaryDirectory(prefix="bench-d1-") as tmp:
