@@ -25,7 +25,7 @@ LAYERS = (
     ("pcbdata.publish",),
     ("pcbdata.evaluator", "pcbdata.baselines", "pcbdata.builders"),
     ("pcbdata.env",),
-    ("pcbdata.env.wrappers", "pcbdata.env.llm"),
+    ("pcbdata.env.wrappers", "pcbdata.env.llm.wrapper"),
     ("pcbdata.agents",),
     ("pcbdata.cli", "pcbdata", "pcbdata.__main__"),
 )

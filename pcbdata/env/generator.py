@@ -1,15 +1,29 @@
-"""Where an environment's boards come from: a built set folder, dataset rows, or a D1/D2
-generator called on the fly. Each source lists board ids and writes one board's files
-(`board.kicad_pcb`, `board.kicad_pro`, maybe `board.kicad_dru`) into a folder on demand."""
+"""Where an environment's boards come from (its generator, in jumanji's words): a built set
+folder, dataset rows, or a D1/D2 generator called on the fly. Each is a `BoardSource`."""
 from __future__ import annotations
 
 import difflib
 import shutil
 from pathlib import Path
+from typing import Protocol
 
 from pcbdata.core.errors import UserError
 from pcbdata.core.tree import INSTANCE_FILES, MANIFEST_NAME
 from pcbdata.spec.configs import ConfigSpec
+
+
+class BoardSource(Protocol):
+    """The boards an environment draws from.
+
+    Guarantee: `board_ids` is fixed for the source's life and in a deterministic order, and
+    `folder(i, work)` returns a folder holding board i's instance files (`board.kicad_pcb`,
+    `board.kicad_pro` and, where the family has custom rules, `board.kicad_dru`), the same
+    bytes on every call and in every process; it may write them under `work`, a folder of the
+    environment's own."""
+
+    board_ids: list[str]
+
+    def folder(self, index: int, work: Path) -> Path: ...
 
 
 class SetSource:
@@ -114,7 +128,7 @@ def _not_held(root: Path, name: str, held: list[str]) -> str:
             f"{', '.join(held) or 'none'})")
 
 
-def make_source(spec: ConfigSpec, root, split: str, rows, count: int | None):
+def make_source(spec: ConfigSpec, root, split: str, rows, count: int | None) -> BoardSource:
     if rows is not None:
         return RowSource(rows)
     if root is not None:

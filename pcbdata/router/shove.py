@@ -24,7 +24,7 @@ from dataclasses import dataclass, field, replace
 import shapely
 
 from pcbdata.router.geometry import BoardGeometry, CopperItem, Point, copper_core
-from pcbdata.router.walkaround import SAFETY, RouteRequest, WalkaroundRouter
+from pcbdata.router.walkaround import TOLERANCE, RouteRequest, WalkaroundRouter
 
 
 @dataclass(frozen=True)
@@ -100,7 +100,7 @@ def _blocking(path, request: RouteRequest, movable: list[CopperItem]) -> list[Co
     out = []
     for item in movable:
         core, radius = copper_core(item)
-        need = radius + request.width / 2 + max(request.clearance, item.clearance) + SAFETY
+        need = radius + request.width / 2 + max(request.clearance, item.clearance) - TOLERANCE
         if shapely.distance(line, core) < need:
             out.append(item)
     return out

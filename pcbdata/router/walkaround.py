@@ -2,9 +2,14 @@
 
 The environment's `walkaround` mode asks for a path from the head to a point on one copper
 layer. KiCad stays the judge, so a path we return must pass KiCad's DRC by construction:
-every segment keeps `max(request clearance, item clearance) + SAFETY` (copper edge to copper
-edge) from every other net's copper on the layer and `edge_clearance + SAFETY` from the board
-edge, checked exactly on the integer path we return.
+every segment keeps `max(request clearance, item clearance)` (copper edge to copper edge) from
+every other net's copper on the layer and `edge_clearance` from the board edge, checked on the
+integer path we return. The rule is KiCad's: a gap equal to the clearance is legal (D1 boards
+route at exactly the clearance from the edge and from the next cell's pad). Distances are
+floats: a gap counts as legal down to `TOLERANCE` (1e-3 nm) below the clearance, so float
+rounding of an exactly-equal gap cannot refuse it; that is far below what KiCad's DRC lets
+pass (it tests against the clearance minus a small epsilon and rounds to integer nm).
+Corner nodes are rounded to integer nm away from their obstacle (see `_corner_nodes`).
 
 Tries, cheapest first: the straight segment (when start-goal is octilinear), the two one-bend
 paths, then a search. The search graph's nodes are the corners of octagonal keep-outs around
@@ -37,14 +42,17 @@ from pcbdata.router.geometry import (
     simplify_path,
 )
 
-SAFETY = 2_000  # nm beyond every clearance: slack for KiCad's own integer rounding
-NODE_MARGIN = 3_000  # nm beyond clearance for corner nodes: links along a keep-out pass SAFETY
+TOLERANCE = 1e-3  # nm: float rounding of distances (see the module doc); no margin is added
 _ROOT2 = math.sqrt(2)
 # Outward normals of the octagon's sides, counter-clockwise from +x.
 _NORMALS = np.array([(math.cos(k * math.pi / 4), math.sin(k * math.pi / 4)) for k in range(8)])
 # Corner k of an octagon is where side k meets side k+1: p = inverse(normals) @ (h_k, h_k+1).
 _CORNER_SOLVERS = np.array(
     [np.linalg.inv(np.stack([_NORMALS[k], _NORMALS[(k + 1) % 8]])) for k in range(8)]
+)
+# Corner k lies between normals k and k+1; rounding it by these signs moves it away from both.
+_CORNER_SIGNS = np.sign(
+    [(math.cos((k + 0.5) * math.pi / 4), math.sin((k + 0.5) * math.pi / 4)) for k in range(8)]
 )
 _EDGE = "edge"
 # The search first looks at corners within this margin of the start-goal box (nm or share
@@ -152,7 +160,7 @@ class _Rules:
         self.half_width = half_width
         obstacle = layer.is_edge | (layer.code <= 0) | (layer.code != net_code)
         gap = np.where(layer.is_edge, edge_clearance, np.maximum(clearance, layer.clearance))
-        need = layer.radius + half_width + gap + SAFETY
+        need = layer.radius + half_width + gap - TOLERANCE
         # Indexed by layer item; items of our own net get an empty reach (never checked).
         self.obstacle = obstacle
         self.need = np.where(obstacle, need, -np.inf)
@@ -357,36 +365,53 @@ class WalkaroundRouter:
         return ""
 
     def _corner_nodes(self, rules: _Rules) -> np.ndarray:
-        """Candidate nodes: octagon corners around obstacles and the inset board corners."""
+        """Candidate nodes: octagon corners around obstacles and the inset board corners.
+
+        The octagon's sides lie at exactly the allowed distance, so a link along a side keeps
+        the clearance with nothing to spare; a corner is rounded to integer nm outwards (each
+        coordinate away from the obstacle, in the quadrant between the corner's two normals),
+        which keeps it outside both of its sides, hence at least `need` from the core.
+        """
         layer = rules.layer
         items = np.flatnonzero(rules.obstacle & ~layer.is_edge)
-        # Octagon sides NODE_MARGIN (not SAFETY) beyond the clearance: links along them pass.
-        reach = rules.reach[items] - SAFETY + NODE_MARGIN
+        reach = rules.reach[items]
         pairs = np.stack([reach, np.roll(reach, -1, axis=1)], axis=2)  # (m, 8, 2)
-        parts = [np.einsum("kij,mkj->mki", _CORNER_SOLVERS, pairs).reshape(-1, 2)]
+        corners = np.einsum("kij,mkj->mki", _CORNER_SOLVERS, pairs)  # (m, 8, 2)
+        parts = [_round_outwards(corners, _CORNER_SIGNS[None]).reshape(-1, 2)]
         for i in items[~layer.convex[items]]:  # octagons lose a zone's bays: add its own corners
-            grown = shapely.buffer(
-                layer.cores[i], rules.need[i] - SAFETY + NODE_MARGIN, join_style="mitre"
-            )
-            parts.append(shapely.get_coordinates(shapely.boundary(grown)))
+            grown = shapely.buffer(layer.cores[i], rules.need[i], join_style="mitre")
+            points = shapely.get_coordinates(shapely.boundary(grown))
+            parts.append(_round_outwards(points, np.sign(points - layer.inner[i])))
         parts.append(self._board_corners(rules.half_width))
-        return np.round(np.concatenate(parts))
+        return np.concatenate(parts)
 
     def _board_corners(self, half_width: float) -> np.ndarray:
+        """Corners of the board inset by the edge clearance, rounded towards the board's
+        inside (nodes that still fail the edge test are dropped with the others)."""
         if self._region is None:
             return np.empty((0, 2))
         if half_width not in self._inset_corners:
             inset = shapely.buffer(
-                self._region,
-                -(half_width + self.board.edge_clearance + NODE_MARGIN),
-                join_style="mitre",
+                self._region, -(half_width + self.board.edge_clearance), join_style="mitre"
             )
-            self._inset_corners[half_width] = (
-                np.empty((0, 2))
-                if inset.is_empty
-                else shapely.get_coordinates(shapely.boundary(inset))
-            )
+            if inset.is_empty:
+                points = np.empty((0, 2))
+            else:
+                points = shapely.get_coordinates(shapely.boundary(inset))
+                centre = shapely.get_coordinates(shapely.centroid(inset))[0]
+                points = _round_outwards(points, np.sign(centre - points))
+            self._inset_corners[half_width] = points
         return self._inset_corners[half_width]
+
+
+def _round_outwards(points: np.ndarray, signs: np.ndarray) -> np.ndarray:
+    """Rounds each coordinate to an integer in the direction of its sign (0: nearest). A
+    value within a few `TOLERANCE` of an integer is that integer: a side at an exact integer
+    sits `TOLERANCE` short of it in floats."""
+    near = np.round(points)
+    snapped = np.abs(points - near) <= 4 * TOLERANCE
+    out = np.where(signs > 0, np.ceil(points), np.where(signs < 0, np.floor(points), near))
+    return np.where(snapped, near, out)
 
 
 def _board_region(outline) -> tuple[shapely.Geometry | None, list[shapely.Geometry]]:
