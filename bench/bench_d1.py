@@ -25,7 +25,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 GRIDS = (10, 50, 100, 200, 500)
-AGENT = "pcbdata.agents.scripted:D1Agent"
+AGENT = "pcbdata.agents.d1:D1Agent"
 
 
 def _write(root: Path, config: str, limit: int) -> None:
@@ -38,7 +38,7 @@ def _write(root: Path, config: str, limit: int) -> None:
 def _walled_boards(config: str, limit: int) -> int:
     """Boards with a net that no agent can join (a pad walled in by other pads)."""
     from pcbdata.spec.configs import get_config
-    from pcbdata.agents.scripted import D1Grid
+    from pcbdata.agents.d1 import D1Grid
 
     spec = get_config(config)
     generator, count = spec.generator(), 0

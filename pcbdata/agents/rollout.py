@@ -27,16 +27,17 @@ from pcbdata.core.errors import UserError
 
 AGENTS = {"scripted": "pcbdata.agents.scripted:ScriptedAgent",
           "scripted-shove": "pcbdata.agents.scripted:ShovingScriptedAgent",
-          "random": "pcbdata.agents.scripted:RandomAgent"}
+          "random": "pcbdata.agents.random:RandomAgent",
+          "d1": "pcbdata.agents.d1:D1Agent"}
 
 
 def make_agent(spec: str, seed: int):
-    """An agent by name (`scripted`, `scripted-shove`, `random`) or `module:Class`; seeded when
-    it takes one."""
+    """An agent by name (`AGENTS`: scripted, scripted-shove, random, d1) or `module:Class`;
+    seeded when it takes one."""
     ref = AGENTS.get(spec, spec)
     module, _, name = ref.partition(":")
     if not name:
-        raise UserError(f"--agent {spec!r}: use scripted, scripted-shove, random or module:Class")
+        raise UserError(f"--agent {spec!r}: use {', '.join(AGENTS)} or module:Class")
     try:
         cls = getattr(importlib.import_module(module), name)
     except (ImportError, AttributeError) as exc:

@@ -7,7 +7,7 @@ import sys
 from pcbdata.cli import _executor_options
 
 VERB = "rollout"
-HELP = "run an agent (scripted, random or module:Class) in the routing environment over a set"
+HELP = "run an agent (scripted, scripted-shove, d1, random, module:Class) in the routing environment"
 
 
 def register(parser) -> None:
@@ -18,7 +18,8 @@ def register(parser) -> None:
     parser.add_argument("--split", default="test", help="split name (default: test)")
     parser.add_argument("--agent", default="scripted",
                         help="scripted (default), scripted-shove (push_n_shove when walkaround "
-                             "fails), random, or module:Class with act(obs, info)")
+                             "fails), d1 (D1 boards: lattice plan with rip-up and reroute), "
+                             "random, or module:Class with act(obs, info)")
     parser.add_argument("--rollouts", type=int, default=1, help="rollouts per board (seeds 0..)")
     parser.add_argument("--out", required=True, metavar="RUNS",
                         help="RUNS/<board_id>/<rollout>.kicad_pcb + .json (pcbdata eval reads it)")

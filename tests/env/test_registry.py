@@ -55,7 +55,7 @@ def _d3_root(ident: str, d3_set):
 def _random_steps(env, steps: int) -> None:
     """Seeded masked-random actions on real boards never crash (D3: real netclasses, zones,
     many layers)."""
-    from pcbdata.agents.scripted import RandomAgent
+    from pcbdata.agents.random import RandomAgent
 
     agent = RandomAgent(7)
     obs, info = env.reset(seed=7)

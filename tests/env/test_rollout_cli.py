@@ -9,7 +9,7 @@ from pcbdata.cli import main
 def test_rollout_then_eval(board_set, tmp_path, capsys):
     runs = tmp_path / "runs"
     argv = ["rollout", str(board_set), "--config", "d2", "--split", "test", "--agent",
-            "pcbdata.agents.scripted:RandomAgent", "--rollouts", "2", "--limit", "2",
+            "pcbdata.agents.random:RandomAgent", "--rollouts", "2", "--limit", "2",
             "--max-steps", "15", "--workers", "2", "--out", str(runs)]
     assert main(argv) == 0
     printed = capsys.readouterr().out

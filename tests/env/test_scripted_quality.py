@@ -9,8 +9,9 @@ from pathlib import Path
 
 import pytest
 
+from pcbdata.agents.d1 import D1Agent
 from pcbdata.agents.rollout import run_episode
-from pcbdata.agents.scripted import D1Agent, ScriptedAgent
+from pcbdata.agents.scripted import ScriptedAgent
 
 GEOMETRY_VIOLATIONS = {"clearance", "shorting_items", "tracks_crossing", "copper_edge_clearance",
                        "hole_clearance", "hole_to_hole"}
@@ -107,7 +108,7 @@ def test_d3_a_scripted_boards_have_no_geometry_violation(d3_set):
 
 
 def _grid(size: int, pads: dict):
-    from pcbdata.agents.scripted import D1Grid
+    from pcbdata.agents.d1 import D1Grid
 
     return D1Grid.of(1.0, size, pads)
 
@@ -124,7 +125,7 @@ def _assert_valid_plan(grid, paths: dict) -> None:
 def test_d1_plan_rips_up_a_net_that_walls_another_in():
     """Net 0 first takes the short way under net 1's pad, which seals net 1 in; the planner
     rips net 0 up, routes net 1 and sends net 0 around the board."""
-    from pcbdata.agents.scripted import plan_d1
+    from pcbdata.agents.d1 import plan_d1
 
     grid = _grid(4, {0: [(0, 0), (2, 0)], 1: [(1, 0), (1, 2)]})
     paths = plan_d1(grid, [0, 1])
@@ -135,7 +136,7 @@ def test_d1_plan_rips_up_a_net_that_walls_another_in():
 
 
 def test_d1_walled_in_pads_are_the_ceiling():
-    from pcbdata.agents.scripted import plan_d1
+    from pcbdata.agents.d1 import plan_d1
 
     grid = _grid(4, {0: [(0, 0), (3, 3)], 1: [(1, 0), (0, 1)]})
     assert grid.walled_nets() == [0]

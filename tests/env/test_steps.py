@@ -9,7 +9,8 @@ import signal
 import numpy as np
 import pytest
 
-from pcbdata.agents.scripted import RandomAgent, action
+from pcbdata.agents.random import RandomAgent
+from pcbdata.agents.scripted import action
 from pcbdata.env.types import (
     FINISH,
     IDLE,
