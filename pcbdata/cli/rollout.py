@@ -7,7 +7,7 @@ import sys
 from pcbdata.cli import _executor_options
 
 VERB = "rollout"
-HELP = "run an agent (scripted, scripted-shove, d1, random, module:Class) in the routing environment"
+HELP = "route a board set with an agent (scripted, scripted-shove, d1, random, module:Class)"
 
 
 def register(parser) -> None:
