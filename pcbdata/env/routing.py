@@ -86,8 +86,8 @@ def _shove_path(router, net: NetRules, layer: str, start, goal, budget, extra) -
 
 
 def remove_edit(item: CopperItem) -> dict:
-    """The edit that takes one straight track up (KiCad deletes every track of that net, layer,
-    ends and width)."""
+    """The edit that takes one straight track up (one KiCad track of that net, layer, ends and
+    width: a track drawn twice needs two edits)."""
     return {"kind": "remove", "net": item.net, "layer": item.layers[0], "start": item.start,
             "end": item.end, "width": item.width}
 

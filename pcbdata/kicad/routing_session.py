@@ -165,8 +165,9 @@ def _remove(board, edit: dict, layers: dict[str, int]) -> None:
         what = "via" if edit["kind"] == "remove_via" else "track"
         raise ValueError(f"no {what} of net {edit['net']!r} to remove at "
                          f"{edit.get('at') or (edit['start'], edit['end'])}")
-    for item in found:
-        board.Delete(item)  # never Remove: it leaves the item half-owned and damages pcbnew
+    # One item per edit: the router's board may hold two identical tracks (a line drawn twice),
+    # and a plan that takes both up sends two edits.
+    board.Delete(found[0])  # never Remove: it leaves the item half-owned and damages pcbnew
 
 
 def apply(edits: list[dict], drc: bool = False) -> dict:

@@ -97,7 +97,7 @@ def test_d3_a_scripted_boards_have_no_geometry_violation(d3_set):
 
     if not any((d3_set / "d3-a" / "test").glob("*/board.kicad_pcb")):
         pytest.skip("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
-    env = gym.make("pcbdata/Route-d3-a-v1", root=str(d3_set), drc="terminal", max_steps=80)
+    env = gym.make("pcbdata/Route-d3-a-v2", root=str(d3_set), drc="terminal", max_steps=80)
     try:
         for board_id in env.unwrapped.source.board_ids[:3]:
             kinds, _, record = _route(env, ScriptedAgent(seed=0), board_id)

@@ -103,7 +103,7 @@ def test_push_dry_run_lists_the_dataset_not_the_tree(published, capsys):
     assert "d2/test-00000-of-00001.parquet" in lines and "d1-g10/test.npz" in lines
     assert "pictures/d2/pads.svg" in lines
     assert not any("/board_0" in line and not line.startswith("pictures/") for line in lines)
-    assert "tag d1-v1.0.0, d2-v1.0.0, d3-v1.0.0" in out
+    assert "tag d1-v1.0.0, d2-v2.0.0, d3-v1.0.0" in out
 
 
 def test_push_offline_fails_with_one_clear_line(published, capsys):
