@@ -143,7 +143,7 @@ def _plan_cost(paths: dict) -> tuple[int, int]:
 
 
 class D1Agent(ScriptedAgent):
-    """D1's agent (`--agent pcbdata.agents.scripted:D1Agent`): plans every net on the board's
+    """D1's agent (`--agent d1`): plans every net on the board's
     lattice (Connector's problem: 4-connected cell paths, one net per cell) with net ordering
     and rip-up and reroute of the nets that block an open one, then lays the plan cell by cell
     with `make_line` to the lattice ring candidates (walkaround mode: KiCad judges each step).
