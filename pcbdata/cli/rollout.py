@@ -16,6 +16,9 @@ LLM_FLAGS = {"--base-url": ("base_url", str), "--model": ("model", str),
              "--request-timeout": ("timeout_s", float), "--max-retries": ("max_retries", int),
              "--retry-backoff": ("backoff_s", float),
              "--retry-backoff-cap": ("backoff_cap_s", float)}
+METAVARS = {"--base-url": "URL", "--model": "NAME", "--api-key-env": "VAR",
+            "--request-timeout": "SECONDS", "--retry-backoff": "SECONDS",
+            "--retry-backoff-cap": "SECONDS"}
 LLM_HELP = {
     "--base-url": "an OpenAI-compatible server, e.g. http://127.0.0.1:8000/v1 (vLLM), "
                   "http://127.0.0.1:8080/v1 (llama-server), http://127.0.0.1:11434/v1 (Ollama)",
@@ -23,7 +26,7 @@ LLM_HELP = {
     "--api-key-env": "environment variable holding the API key (default: OPENAI_API_KEY; "
                      "unset: no key is sent); the key is never written into the run",
     "--temperature": "sampling temperature (default: 0)",
-    "--llm-seed": "sampling seed offset: rollout k sends seed OFFSET + k (default: 0)",
+    "--llm-seed": "sampling seed offset: rollout k sends seed N + k (default: 0)",
     "--max-tokens": "completion token limit per request (default: 512 for llm, 8192 for "
                     "llm-plan, 16384 for llm-direct)",
     "--request-timeout": "seconds per request (default: 120)",
@@ -56,10 +59,15 @@ def register(parser) -> None:
     parser.add_argument("--max-steps", type=int, default=200, help="step limit (default: 200)")
     parser.add_argument("--drc", choices=("step", "terminal"), default="step",
                         help="KiCad DRC after every copper change (default) or at the end only")
+    parser.add_argument("--rollout-timeout", type=float, default=None, metavar="SECONDS",
+                        help="wall-time limit of one rollout in its worker (default: 3600; a "
+                             "slow language model may need more: the rollout is otherwise "
+                             "reported failed and left pending)")
     group = parser.add_argument_group("language models (--agent llm, llm-plan, llm-direct; "
                                       "docs/env_llm.md)")
     for flag, (dest, kind) in LLM_FLAGS.items():
-        group.add_argument(flag, dest=f"llm_{dest}", type=kind, help=LLM_HELP[flag])
+        group.add_argument(flag, dest=f"llm_{dest}", type=kind, help=LLM_HELP[flag],
+                           metavar=METAVARS.get(flag, {int: "N", float: "X"}.get(kind, "TEXT")))
     _executor_options.add(parser)
     parser.set_defaults(run=run)
 
@@ -79,15 +87,18 @@ def llm_options(args) -> dict | None:
 
 
 def run(args) -> int:
-    from pcbdata.agents.rollout import run_rollouts
+    from pcbdata.agents.rollout import ROLLOUT_TIMEOUT, run_rollouts
     from pcbdata.core.errors import UserError
 
     if args.rollouts < 1 or args.workers < 1:
         raise UserError("--rollouts and --workers must be at least 1")
+    timeout = ROLLOUT_TIMEOUT if args.rollout_timeout is None else args.rollout_timeout
+    if not timeout > 0:
+        raise UserError("--rollout-timeout must be more than 0 seconds")
     summary = run_rollouts(args.dir, args.config, args.split, args.agent, args.rollouts,
                            args.out, args.workers, args.limit,
                            {"max_steps": args.max_steps, "drc": args.drc},
-                           executor=_executor_options.executor(args),
+                           timeout=timeout, executor=_executor_options.executor(args),
                            agent_options=llm_options(args))
     mean = summary["mean_reward"]
     shown = "n/a" if mean is None else f"{mean:.3f}"
