@@ -121,18 +121,33 @@ class ChatClient:
         return out
 
     def preflight(self) -> None:
-        """One `GET <base>/models`: a server that is down or refuses fails the run at once."""
-        url = f"{self.base}/models"
-        request = urllib.request.Request(url, headers=self._headers(), method="GET")
+        """`GET <base>/models` (a server without it: one tiny chat request): a server that is
+        down or refuses fails the run at once, with one line."""
+        status, reason = self._probe("GET", "/models", None)
+        if status in (404, 405):
+            tiny = {"model": self.options["model"], "max_tokens": 1,
+                    "messages": [{"role": "user", "content": "ping"}]}
+            status, reason = self._probe("POST", "/chat/completions", tiny)
+        if status == 200:
+            return
+        hint = (f"is {self.options['api_key_env']} the right key?" if status in (401, 403)
+                else "is the server running?")
+        raise UserError(f"--base-url {self.base}: {reason}; {hint}")
+
+    def _probe(self, method: str, path: str, body: dict | None) -> tuple[int, str]:
+        """(HTTP status, 0 when no answer; the failure's one-line reason)."""
+        data = None if body is None else json.dumps(body).encode("utf-8")
+        request = urllib.request.Request(self.base + path, data=data, headers=self._headers(),
+                                         method=method)
         try:
             with urllib.request.urlopen(request, timeout=min(10.0, self.options["timeout_s"])):
-                return
+                return 200, ""
         except urllib.error.HTTPError as exc:
-            reason = f"HTTP {exc.code} {_body_text(exc)}"
-        except (urllib.error.URLError, OSError) as exc:
-            reason = _network_reason(exc)
-        raise UserError(f"--base-url {self.base}: GET /models failed ({reason}); is the server "
-                        f"running?")
+            shown = _body_text(exc)
+            detail = f"HTTP {exc.code}: {shown}" if shown else f"HTTP {exc.code}"
+            return exc.code, f"{method} {path} failed ({detail})"
+        except (urllib.error.URLError, OSError, http.client.HTTPException) as exc:
+            return 0, f"{method} {path} failed ({_network_reason(exc)})"
 
     def chat(self, messages: list[dict], tools: list[dict] | None, seed: int,
              **extra) -> dict:

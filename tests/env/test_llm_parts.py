@@ -101,3 +101,51 @@ def test_llm_totals_sum_numbers_of_readable_sidecars(tmp_path):
     assert llm_totals(boards, _read_sidecar) == {"rollouts": 2, "latency_s_total": 0.25,
                                                  "prompt_tokens": 7, "requests": 5}
     assert llm_totals(boards[2:], _read_sidecar) is None
+
+
+class _Probe:
+    """A server on 127.0.0.1 answering GET with `get` and POST with `post` (HTTP statuses)."""
+
+    def __init__(self, get: int, post: int):
+        import threading
+        from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
+
+        statuses = {"GET": get, "POST": post}
+
+        class Handler(BaseHTTPRequestHandler):
+            def log_message(self, *args):
+                pass
+
+            def _answer(self):
+                length = int(self.headers.get("Content-Length", 0))
+                self.rfile.read(length)
+                data = json.dumps({"error": {"message": "nope"}}).encode()
+                self.send_response(statuses[self.command])
+                self.send_header("Content-Length", str(len(data)))
+                self.end_headers()
+                self.wfile.write(data)
+
+            do_GET = do_POST = _answer
+
+        self.httpd = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
+        self.url = f"http://127.0.0.1:{self.httpd.server_address[1]}/v1"
+        self.thread = threading.Thread(target=self.httpd.serve_forever, daemon=True)
+
+    def __enter__(self):
+        self.thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.httpd.shutdown()
+        self.httpd.server_close()
+
+
+def test_preflight_falls_back_to_a_tiny_chat_and_names_a_bad_key():
+    with _Probe(get=404, post=200) as server:  # no /models: one tiny chat request instead
+        ChatClient({"base_url": server.url, "model": "m"}).preflight()
+    with _Probe(get=404, post=500) as server:
+        with pytest.raises(UserError, match=r"POST /chat/completions failed \(HTTP 500: "):
+            ChatClient({"base_url": server.url, "model": "m"}).preflight()
+    with _Probe(get=401, post=200) as server:
+        with pytest.raises(UserError, match="GET /models failed .HTTP 401.*is MY_KEY the right"):
+            ChatClient({"base_url": server.url, "model": "m", "api_key_env": "MY_KEY"}).preflight()
