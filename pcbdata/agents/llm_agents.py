@@ -31,6 +31,7 @@ from pcbdata.env.llm.wrapper import RULES, LLMWrapper
 #: wrapper's text and tools): bump it when either changes; recorded in every rollout.
 PROMPT_VERSION = "pcbdata-llm-1"
 STOP_WORDS = ("<stop>", "stop")
+ONE_CALL = "Reply with exactly one call."  # the closed loop's last line of a user message
 #: Unreadable replies in a row that end a closed-loop episode.
 MAX_UNREADABLE = 10
 MAX_FAULTS_KEPT = 50  # fault entries kept in a rollout's JSON (the count is always kept)
@@ -40,7 +41,7 @@ PLAN_RULES = RULES.split("\nReply with exactly one tool call")[0] + """
 This is open loop: send the WHOLE sequence of actions now, in order, as tool calls (one per
 action), or as a JSON list of {"name": ..., "arguments": {...}}, or one call per line. They are
 carried out one after the other with no feedback. The candidate list below is the first step's;
-later steps list candidates the same way (pads of the selected net first), from the state."""
+each later step lists its candidates the same way, from the state the plan has reached."""
 DIRECT_RULES = """\
 You route a printed circuit board. Board coordinates are in mm, x to the right, y down.
 Goal: join every open connection (each net's pads) with copper, with no DRC violation.
@@ -171,7 +172,8 @@ class PlanAgent(_LLMBase):
         first, info = wrapper.reset(seed=seed, options={"board_id": board_id})
         static = wrapper.system_message[len(RULES):]
         messages = [{"role": "system", "content": PLAN_RULES + static},
-                    {"role": "user", "content": first + "\nSend the whole plan now."}]
+                    {"role": "user", "content": first.removesuffix(ONE_CALL)
+                     + "Send the whole plan now."}]
         message = self._ask(1, messages, wrapper.tools)
         calls = [] if message is None else plan_calls(message)
         total, ended = 0.0, (False, False)
