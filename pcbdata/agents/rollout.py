@@ -10,7 +10,8 @@ renamed, the JSON last), so a task run twice (Ray runs again a task whose node d
 the same files. A rollout whose worker fails (time limit, crash) is reported and left pending.
 
 The files are the same bytes whatever the executor and the worker (the environment is
-deterministic and seeds KiCad's UUIDs), but for the JSON's `time_s`: the episode's wall time.
+deterministic and seeds KiCad's UUIDs), but for the JSON's `time_s`: the episode's wall time
+(and, for the language-model agents, `llm.latency_s`; their moves are the server's).
 """
 from __future__ import annotations
 
