@@ -1,63 +1,66 @@
 """A tool-using language model routes one D2 board through `pcbdata.env.llm.wrapper`, then
 `pcbdata eval` scores the saved board.
 
-    export OPENAI_API_KEY=...                      # no key: the scripted stand-in plays
-    export OPENAI_BASE_URL=https://api.openai.com/v1   # or any OpenAI-compatible server
-    export PCBDATA_LLM_MODEL=gpt-4o-mini           # the model name that server knows
-    python examples/llm_episode.py --out runs-llm [--board 0] [--max-steps 60]
+    python examples/llm_episode.py --out runs-llm [--board 0] [--max-steps 60] \
+        [--base-url http://127.0.0.1:8000/v1 --model Qwen/Qwen2.5-7B-Instruct]
+    # OPENAI_API_KEY is sent when set (a local vLLM / llama-server / Ollama needs none)
 
-It builds a one-board D2 test set (`pcbdata build d2 --count`), runs one episode with
-`run_episode(env, model)` where `model(messages, tools)` posts to `<base>/chat/completions`
-(`tools` as given, `tool_choice` auto) and hands back the assistant message (its
-`tool_calls` or its text: the wrapper's parser reads either), saves the board as
-`OUT/runs/<board_id>/0.kicad_pcb` and runs `pcbdata eval` on it. Standard library only (no
-client package). Without `OPENAI_API_KEY` it says so and uses
-`pcbdata.agents.llm_standin.ScriptedModel` (the scripted baseline speaking the same text
-protocol), so the whole path runs offline.
+It builds a one-board D2 test set (`pcbdata build d2 --count`) and runs one episode with
+`pcbdata.agents.llm_agents.LLMAgent`, the agent of `pcbdata rollout --agent llm`: one
+chat-completions request per step through `pcbdata.agents.llm_client.ChatClient` (standard
+library; retries, faults and accounting as docs/env_llm.md says). It prints each step, why the
+episode ended and the accounting, saves the board as `OUT/runs/<board_id>/0.kicad_pcb` and
+runs `pcbdata eval` on it. Without `--base-url` (or `OPENAI_BASE_URL`) it says so and the
+scripted stand-in (`pcbdata.agents.llm_standin.ScriptedModel`, the scripted baseline speaking
+the same protocol) plays instead, so the whole path runs offline.
 
-Not a test and not run in CI. Checked here: the offline path end to end (stand-in episode,
-save, `pcbdata eval`); the request body against OpenAI's chat-completions reference
-(`model`, `messages`, `tools`, `tool_choice`; the reply in `choices[0].message`). No call to a
-real API was made from this machine (no network).
+For a whole set use `pcbdata rollout SET --agent llm --base-url URL --model NAME` instead.
+Not a test and not run in CI; the client is tested against a local replay server
+(tests/env/test_llm_rollout.py).
 """
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
-import urllib.error
-import urllib.request
 from pathlib import Path
 
 import gymnasium as gym
 
 import pcbdata.env  # noqa: F401 - registers the ids
+from pcbdata.agents.llm_agents import LLMAgent
 from pcbdata.agents.llm_standin import ScriptedModel
+from pcbdata.core.errors import PcbdataError
 from pcbdata.env.llm.wrapper import LLMWrapper, run_episode
 
 
-class ChatCompletionsModel:
-    """`reply = model(messages, tools)` over an OpenAI-compatible `/chat/completions`."""
+def with_model(env, args) -> str:
+    """Runs the episode with the server's model; returns the board id."""
+    agent = LLMAgent(seed=0, base_url=args.base_url, model=args.model)
+    agent.preflight()
+    env_kwargs = {"root": str(args.set), "config": "d2", "split": "test"}
+    board_id = f"board_{args.board:05d}"
+    record = agent.episode(env, board_id, 0, env_kwargs)
+    llm = record["llm"]
+    for fault in llm["faults"]:
+        print(f"step {fault['step']:3d}  {fault['kind']}: {fault['reason']}")
+    print(f"{board_id}: reward {record['reward']:.3f} in {record['steps']} steps, unconnected "
+          f"{record['unconnected']}, DRV {record['drv']}; ended: {llm['end']}")
+    print("accounting:", llm["accounting"])
+    return board_id
 
-    def __init__(self, base_url: str, api_key: str, model: str, timeout_s: float = 120.0):
-        self.url = base_url.rstrip("/") + "/chat/completions"
-        self.api_key, self.model, self.timeout_s = api_key, model, timeout_s
 
-    def __call__(self, messages: list[dict], tools: list[dict]) -> dict:
-        body = json.dumps({"model": self.model, "messages": messages, "tools": tools,
-                           "tool_choice": "auto", "temperature": 0}).encode("utf-8")
-        request = urllib.request.Request(self.url, data=body, method="POST", headers={
-            "Content-Type": "application/json", "Authorization": f"Bearer {self.api_key}"})
-        try:
-            with urllib.request.urlopen(request, timeout=self.timeout_s) as response:
-                answer = json.load(response)
-        except urllib.error.HTTPError as exc:
-            raise SystemExit(f"{self.url}: HTTP {exc.code}: {exc.read()[:300]!r}") from None
-        except urllib.error.URLError as exc:
-            raise SystemExit(f"{self.url}: {exc.reason}") from None
-        return answer["choices"][0]["message"]  # {"content": ..., "tool_calls": [...]}
+def with_standin(env, args) -> str:
+    print("no --base-url: the scripted stand-in plays instead of a language model",
+          file=sys.stderr)
+    wrapper = LLMWrapper(env)
+    result = run_episode(wrapper, ScriptedModel(wrapper), seed=0, options={"index": args.board})
+    for record in result.records:
+        print(f"step {record.step:3d}  {record.call or '<bad reply>':32s} {record.outcome}")
+    print(f"{result.board_id}: reward {result.total_reward:.3f} in {result.steps} steps, "
+          f"unconnected {result.unconnected}, DRV {result.drv}")
+    return result.board_id
 
 
 def build_set(out: Path, boards: int) -> Path:
@@ -72,33 +75,25 @@ def main() -> None:
     parser.add_argument("--out", type=Path, default=Path("runs-llm"))
     parser.add_argument("--board", type=int, default=0, help="test board index")
     parser.add_argument("--max-steps", type=int, default=60)
+    parser.add_argument("--base-url", default=os.environ.get("OPENAI_BASE_URL"))
+    parser.add_argument("--model", default=os.environ.get("PCBDATA_LLM_MODEL", "default"))
     args = parser.parse_args()
 
-    board_set = build_set(args.out, args.board + 1)
-    env = gym.make("pcbdata/Route-d2-v2", root=str(board_set), split="test",
+    args.set = build_set(args.out, args.board + 1)
+    env = gym.make("pcbdata/Route-d2-v2", root=str(args.set), split="test",
                    max_steps=args.max_steps, counting="evaluation")
-    wrapper = LLMWrapper(env)
-    key = os.environ.get("OPENAI_API_KEY")
-    if key:
-        model = ChatCompletionsModel(os.environ.get("OPENAI_BASE_URL", "https://api.openai.com/v1"),
-                                     key, os.environ.get("PCBDATA_LLM_MODEL", "gpt-4o-mini"))
-    else:
-        print("OPENAI_API_KEY is not set: the scripted stand-in plays instead of a language "
-              "model (set OPENAI_API_KEY, and OPENAI_BASE_URL / PCBDATA_LLM_MODEL for another "
-              "server or model).", file=sys.stderr)
-        model = ScriptedModel(wrapper)
     try:
-        result = run_episode(wrapper, model, seed=0, options={"index": args.board})
-        for record in result.records:
-            print(f"step {record.step:3d}  {record.call or '<bad reply>':32s} {record.outcome}")
-        print(f"{result.board_id}: reward {result.total_reward:.3f} in {result.steps} steps, "
-              f"unconnected {result.unconnected}, DRV {result.drv}")
-        saved = args.out / "runs" / result.board_id / "0.kicad_pcb"
+        board_id = with_model(env, args) if args.base_url else with_standin(env, args)
+    except PcbdataError as exc:  # e.g. the server is down: one line, no traceback
+        env.close()
+        raise SystemExit(f"llm_episode: {exc}") from None
+    try:
+        saved = args.out / "runs" / board_id / "0.kicad_pcb"
         saved.parent.mkdir(parents=True, exist_ok=True)
         env.unwrapped.save(saved)  # type: ignore[attr-defined]
     finally:
         env.close()
-    subprocess.run([sys.executable, "-m", "pcbdata", "eval", str(board_set), "--config", "d2",
+    subprocess.run([sys.executable, "-m", "pcbdata", "eval", str(args.set), "--config", "d2",
                     "--split", "test", "--runs", str(args.out / "runs"), "--k", "1",
                     "--limit", str(args.board + 1), "--out", str(args.out / "report")],
                    check=True)

@@ -10,7 +10,8 @@ renamed, the JSON last), so a task run twice (Ray runs again a task whose node d
 the same files. A rollout whose worker fails (time limit, crash) is reported and left pending.
 
 The files are the same bytes whatever the executor and the worker (the environment is
-deterministic and seeds KiCad's UUIDs), but for the JSON's `time_s`: the episode's wall time.
+deterministic and seeds KiCad's UUIDs), but for the JSON's `time_s`: the episode's wall time
+(and, for the language-model agents, `llm.latency_s`; their moves are the server's).
 """
 from __future__ import annotations
 
@@ -28,12 +29,16 @@ from pcbdata.core.errors import UserError
 AGENTS = {"scripted": "pcbdata.agents.scripted:ScriptedAgent",
           "scripted-shove": "pcbdata.agents.scripted:ShovingScriptedAgent",
           "random": "pcbdata.agents.random:RandomAgent",
-          "d1": "pcbdata.agents.d1:D1Agent"}
+          "d1": "pcbdata.agents.d1:D1Agent",
+          "llm": "pcbdata.agents.llm_agents:LLMAgent",
+          "llm-plan": "pcbdata.agents.llm_agents:PlanAgent",
+          "llm-direct": "pcbdata.agents.llm_agents:DirectAgent"}
 
 
-def make_agent(spec: str, seed: int):
-    """An agent by name (`AGENTS`: scripted, scripted-shove, random, d1) or `module:Class`;
-    seeded when it takes one."""
+def make_agent(spec: str, seed: int, options: dict | None = None):
+    """An agent by name (`AGENTS`: scripted, scripted-shove, random, d1, llm, llm-plan,
+    llm-direct) or `module:Class`; seeded when it takes one; `options` (plain data, e.g. a
+    language model's server and sampling) are passed as keyword arguments."""
     ref = AGENTS.get(spec, spec)
     module, _, name = ref.partition(":")
     if not name:
@@ -42,8 +47,14 @@ def make_agent(spec: str, seed: int):
         cls = getattr(importlib.import_module(module), name)
     except (ImportError, AttributeError) as exc:
         raise UserError(f"--agent {spec!r}: {exc}") from None
-    takes_seed = "seed" in inspect.signature(cls).parameters
-    return cls(seed=seed) if takes_seed else cls()
+    parameters = inspect.signature(cls).parameters
+    kwargs = {"seed": seed} if "seed" in parameters else {}
+    if options:
+        if not any(p.kind is p.VAR_KEYWORD for p in parameters.values()):
+            raise UserError(f"--agent {spec!r} takes no language-model options "
+                            f"({', '.join(sorted(options))})")
+        kwargs.update(options)
+    return cls(**kwargs)
 
 
 def run_episode(env, agent, board_id: str, seed: int) -> dict:
@@ -100,15 +111,25 @@ def _write_atomic(path: Path, text: str) -> None:
 
 
 def rollout_task(env_kwargs: dict, agent_spec: str, board_id: str, rollout: int,
-                 out: str) -> dict:
-    """Runs and writes one rollout (in a worker process)."""
+                 out: str, agent_options: dict | None = None) -> dict:
+    """Runs and writes one rollout (in a worker process). An agent with an `episode` method
+    runs the whole episode itself (the language-model agents); one that sets `board_text`
+    gives the rollout's board as text instead of the environment's board."""
     env = _env(env_kwargs)
-    record = run_episode(env, make_agent(agent_spec, rollout), board_id, rollout)
+    agent = make_agent(agent_spec, rollout, agent_options)
+    if hasattr(agent, "episode"):
+        record = agent.episode(env, board_id, rollout, env_kwargs)
+    else:
+        record = run_episode(env, agent, board_id, rollout)
     folder = Path(out) / board_id
     folder.mkdir(parents=True, exist_ok=True)
     tmp = folder / f".{rollout}.tmp.kicad_pcb"
     try:
-        env.unwrapped.save(str(tmp))
+        text = getattr(agent, "board_text", None)
+        if text is None:
+            env.unwrapped.save(str(tmp))
+        else:
+            _write_atomic(tmp, text)
         os.replace(tmp, folder / f"{rollout}.kicad_pcb")
     except Exception as exc:  # noqa: BLE001 - a dead engine: the rollout has no board
         record["save_error"] = str(exc)
@@ -129,11 +150,14 @@ ROLLOUT_TIMEOUT = 3600.0
 
 def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, workers: int,
                  limit: int | None = None, env_options: dict | None = None, log=print,
-                 timeout: float = ROLLOUT_TIMEOUT, executor=None) -> dict:
+                 timeout: float = ROLLOUT_TIMEOUT, executor=None,
+                 agent_options: dict | None = None) -> dict:
     """Runs every missing rollout, one task each on `executor` (None: this machine's workers,
     `workers` of them; a Ray executor uses every CPU of its cluster); returns a summary.
     Progress lines go to `log`. `root` and `out` are made absolute here: on a Ray cluster they
-    must be the same path on every node (a shared filesystem)."""
+    must be the same path on every node (a shared filesystem). `agent_options` go to the agent
+    (`make_agent`); an agent with a `preflight()` (a language model's server) is checked
+    once here, before any work."""
     from pcbdata.core.tree import list_instances
     from pcbdata.env.generator import resolve_config
     from pcbdata.env.registry import env_id_for
@@ -141,13 +165,15 @@ def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, 
 
     root, out = Path(root).resolve(), Path(out).resolve()
     resolve_config(config, root)  # any config the set holds; else a UserError naming them
-    make_agent(agent, 0)  # a bad --agent fails before any work
+    probe = make_agent(agent, 0, agent_options)  # a bad --agent fails before any work
     board_ids = [b for b, _ in list_instances(root, config, split)][:limit]
     todo = pending(board_ids, rollouts, out)
+    if todo and hasattr(probe, "preflight"):
+        probe.preflight()
     env_kwargs = {"id": env_id_for(config), "config": config, "root": str(root),
                   "split": split, **(env_options or {})}
     began, records, failed = time.perf_counter(), [], 0
-    tasks = [(env_kwargs, agent, b, r, str(out)) for b, r in todo]
+    tasks = [(env_kwargs, agent, b, r, str(out), agent_options) for b, r in todo]
     with resolve(executor).pool(workers=max(1, min(workers, len(todo) or 1)),
                                 task_timeout=timeout, tasks_per_worker=10**9,
                                 memory_limit_mb=0) as pool:
@@ -159,20 +185,29 @@ def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, 
                 continue
             rec = outcome.value
             records.append(rec)
-            log(f"[{done}/{len(todo)}] {rec['board_id']} #{rec['rollout']}: {rec['steps']} steps,"
-                f" reward {rec['reward']:.3f}, U {rec['unconnected']}, DRV {rec['drv']}, "
-                f"{rec['time_s']:.2f} s" + (f", engine failure: {rec['engine_failure']}"
-                                            if rec.get("engine_failure") else ""))
+            log(f"[{done}/{len(todo)}] {rec['board_id']} #{rec['rollout']}: {_progress(rec)}")
     summary = summarize(records, len(board_ids) * rollouts - len(todo),
                         time.perf_counter() - began)
     summary["failed"] = failed
     return summary
 
 
+def _progress(rec: dict) -> str:
+    """A rollout's progress line (an open-loop copper agent has no reward: eval scores it)."""
+    reward = "n/a" if rec["reward"] is None else f"{rec['reward']:.3f}"
+    line = (f"{rec['steps']} steps, reward {reward}, U {rec['unconnected']}, DRV {rec['drv']}, "
+            f"{rec['time_s']:.2f} s")
+    if rec.get("engine_failure"):
+        line += f", engine failure: {rec['engine_failure']}"
+    end = (rec.get("llm") or {}).get("end")
+    return line + (f", ended: {end}" if end else "")
+
+
 def summarize(records: list[dict], skipped: int, seconds: float) -> dict:
     n = len(records)
+    rewards = [r["reward"] for r in records if r["reward"] is not None]
     return {"run": n, "skipped": skipped, "seconds": seconds,
             "terminated": sum(r["terminated"] for r in records),
-            "mean_reward": sum(r["reward"] for r in records) / n if n else None,
+            "mean_reward": sum(rewards) / len(rewards) if rewards else None,
             "mean_time_s": sum(r["time_s"] for r in records) / n if n else None,
             "engine_failures": sum(bool(r.get("engine_failure")) for r in records)}

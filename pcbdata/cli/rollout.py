@@ -7,7 +7,33 @@ import sys
 from pcbdata.cli import _executor_options
 
 VERB = "rollout"
-HELP = "route a board set with an agent (scripted, scripted-shove, d1, random, module:Class)"
+HELP = ("route a board set with an agent (scripted, scripted-shove, d1, random, llm, llm-plan, "
+        "llm-direct, module:Class)")
+#: The language-model options: flag -> (option name of pcbdata.agents.llm_client, type).
+LLM_FLAGS = {"--base-url": ("base_url", str), "--model": ("model", str),
+             "--api-key-env": ("api_key_env", str), "--temperature": ("temperature", float),
+             "--llm-seed": ("seed", int), "--max-tokens": ("max_tokens", int),
+             "--request-timeout": ("timeout_s", float), "--max-retries": ("max_retries", int),
+             "--retry-backoff": ("backoff_s", float),
+             "--retry-backoff-cap": ("backoff_cap_s", float)}
+METAVARS = {"--base-url": "URL", "--model": "NAME", "--api-key-env": "VAR",
+            "--request-timeout": "SECONDS", "--retry-backoff": "SECONDS",
+            "--retry-backoff-cap": "SECONDS"}
+LLM_HELP = {
+    "--base-url": "an OpenAI-compatible server, e.g. http://127.0.0.1:8000/v1 (vLLM), "
+                  "http://127.0.0.1:8080/v1 (llama-server), http://127.0.0.1:11434/v1 (Ollama)",
+    "--model": "the model name the server knows",
+    "--api-key-env": "environment variable holding the API key (default: OPENAI_API_KEY; "
+                     "unset: no key is sent); the key is never written into the run",
+    "--temperature": "sampling temperature (default: 0)",
+    "--llm-seed": "sampling seed offset: rollout k sends seed N + k (default: 0)",
+    "--max-tokens": "completion token limit per request (default: 512 for llm, 8192 for "
+                    "llm-plan, 16384 for llm-direct)",
+    "--request-timeout": "seconds per request (default: 120)",
+    "--max-retries": "retries of a request after a connection error, time-out, HTTP 429 or "
+                     "5xx or a malformed answer (default: 4)",
+    "--retry-backoff": "first retry's wait in seconds, doubled each retry (default: 1)",
+    "--retry-backoff-cap": "longest wait between retries in seconds (default: 30)"}
 
 
 def register(parser) -> None:
@@ -19,7 +45,10 @@ def register(parser) -> None:
     parser.add_argument("--agent", default="scripted",
                         help="scripted (default), scripted-shove (push_n_shove when walkaround "
                              "fails), d1 (D1 boards: lattice plan with rip-up and reroute), "
-                             "random, or module:Class with act(obs, info)")
+                             "random, llm (a language model, one request per step), llm-plan "
+                             "(one request: the whole action sequence), llm-direct (one "
+                             "request: the copper as .kicad_pcb items), or module:Class with "
+                             "act(obs, info)")
     parser.add_argument("--rollouts", type=int, default=1, help="rollouts per board (seeds 0..)")
     parser.add_argument("--out", required=True, metavar="RUNS",
                         help="RUNS/<board_id>/<rollout>.kicad_pcb + .json (pcbdata eval reads it)")
@@ -30,24 +59,52 @@ def register(parser) -> None:
     parser.add_argument("--max-steps", type=int, default=200, help="step limit (default: 200)")
     parser.add_argument("--drc", choices=("step", "terminal"), default="step",
                         help="KiCad DRC after every copper change (default) or at the end only")
+    parser.add_argument("--rollout-timeout", type=float, default=None, metavar="SECONDS",
+                        help="wall-time limit of one rollout in its worker (default: 3600; a "
+                             "slow language model may need more: the rollout is otherwise "
+                             "reported failed and left pending)")
+    group = parser.add_argument_group("language models (--agent llm, llm-plan, llm-direct; "
+                                      "docs/env_llm.md)")
+    for flag, (dest, kind) in LLM_FLAGS.items():
+        group.add_argument(flag, dest=f"llm_{dest}", type=kind, help=LLM_HELP[flag],
+                           metavar=METAVARS.get(flag, {int: "N", float: "X"}.get(kind, "TEXT")))
     _executor_options.add(parser)
     parser.set_defaults(run=run)
 
 
+def llm_options(args) -> dict | None:
+    """The language-model options given (None for another agent without them)."""
+    from pcbdata.core.errors import UserError
+
+    given = {dest: getattr(args, f"llm_{dest}") for dest, _ in LLM_FLAGS.values()
+             if getattr(args, f"llm_{dest}") is not None}
+    if not args.agent.startswith("llm") and not given:
+        return None
+    env_name = given.get("api_key_env")
+    if env_name is not None and not os.environ.get(env_name):
+        raise UserError(f"--api-key-env {env_name}: that environment variable is not set")
+    return given
+
+
 def run(args) -> int:
-    from pcbdata.agents.rollout import run_rollouts
+    from pcbdata.agents.rollout import ROLLOUT_TIMEOUT, run_rollouts
     from pcbdata.core.errors import UserError
 
     if args.rollouts < 1 or args.workers < 1:
         raise UserError("--rollouts and --workers must be at least 1")
+    timeout = ROLLOUT_TIMEOUT if args.rollout_timeout is None else args.rollout_timeout
+    if not timeout > 0:
+        raise UserError("--rollout-timeout must be more than 0 seconds")
     summary = run_rollouts(args.dir, args.config, args.split, args.agent, args.rollouts,
                            args.out, args.workers, args.limit,
                            {"max_steps": args.max_steps, "drc": args.drc},
-                           executor=_executor_options.executor(args))
+                           timeout=timeout, executor=_executor_options.executor(args),
+                           agent_options=llm_options(args))
     mean = summary["mean_reward"]
+    shown = "n/a" if mean is None else f"{mean:.3f}"
     print(f"done: {summary['run']} rollouts run, {summary['skipped']} already done, "
           f"{summary['terminated']} fully connected, {summary['engine_failures']} engine "
-          f"failures, mean reward {mean:.3f}" if mean is not None else
+          f"failures, mean reward {shown}" if summary["run"] else
           f"done: nothing to run ({summary['skipped']} already done)", end="")
     print(f", {summary['seconds']:.1f} s")
     if summary["failed"]:

@@ -21,6 +21,7 @@ from pcbdata.core.errors import UserError
 from pcbdata.core.fsutil import folder_lock, write_atomic
 from pcbdata.core.hashing import sha256_file
 from pcbdata.core.tree import REFERENCE_FILE, list_instances
+from pcbdata.evaluator.accounting import llm_totals
 from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, complete, instance_hash
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, pick_best
 from pcbdata.evaluator.setcheck import mark, refuse_unverified, set_identity
@@ -372,6 +373,9 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                        cache=cache_stats)
         if warnings:
             summary["runs_warnings"] = warnings
+        llm = None if runs_dir is None else llm_totals((p[4] for p in plan), _read_sidecar)
+        if llm:
+            summary["llm"] = llm  # language-model accounting, only when rollouts record it
         label = name or ("Reference" if runs_dir is None else runs_dir.name)
         table = markdown_table([(label, summary)])
         _write_report(out, label, summary, table, rollout_rows, board_rows)
