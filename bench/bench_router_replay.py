@@ -98,6 +98,7 @@ def _load_base(rev: str, tmp: Path):
     spec = importlib.util.spec_from_file_location("base_walkaround", path)
     assert spec and spec.loader
     module = importlib.util.module_from_spec(spec)
+    sys.modules["base_walkaround"] = module  # dataclasses look their module up there
     spec.loader.exec_module(module)
     return module
 

@@ -65,6 +65,14 @@ BUDGET_CHECKS = 400_000
 # Up to this many (segment, obstacle) pairs are screened all at once; more go through the
 # layer's R-tree first.
 _DENSE_PAIRS = 20_000
+# Unit vectors of the eight octilinear headings (index k: k * 45 degrees) and the index of a
+# heading given as a pair of signs, at [sx + 1, sy + 1].
+_HEADINGS = _NORMALS
+_HEADING_INDEX = np.array([[5, 4, 3], [6, -1, 2], [7, 0, 1]])
+# Keep-outs for the ray screen (see `_Rules.free`): the allowed distance less this much (nm),
+# drawn as inscribed polygons, so whatever they touch violates the clearance beyond float doubt.
+_SCREEN_SHRINK = 1.0
+_SCREEN_QUAD_SEGS = 16
 
 
 @dataclass(frozen=True)
@@ -166,6 +174,44 @@ class _Rules:
         self.need = np.where(obstacle, need, -np.inf)
         self.reach = layer.support + self.need[:, None]
         self.max_need = float(need[obstacle].max()) if obstacle.any() else 0.0
+        self._screen: tuple[np.ndarray, shapely.STRtree] | None = None
+
+    def free(self, points: np.ndarray, headings: np.ndarray, length: float) -> np.ndarray:
+        """How far a track may run from each point along its heading (index into `_HEADINGS`)
+        at most: beyond it the track certainly violates clearance; up to it, it may or may not.
+
+        The bound is where the ray enters a keep-out drawn inside the true one (see
+        `_SCREEN_SHRINK`), so a segment longer than it fails for sure: the search uses it to
+        skip the exact test of links that cannot be clear. `length`: the rays' reach (nm)."""
+        polygons, tree = self._screen_tree()
+        out = np.full(len(points), np.inf)
+        if not len(polygons):
+            return out
+        # Short rays first: most meet a keep-out soon, and a short ray meets few.
+        todo, reach = np.arange(len(points)), min(length, 4 * self.max_need)
+        while len(todo):
+            ends = points[todo] + _HEADINGS[headings[todo]] * reach
+            rays = shapely.linestrings(np.stack([points[todo], ends], axis=1))
+            ray, item = tree.query(rays, predicate="intersects")
+            if len(ray):
+                hit = shapely.intersection(rays[ray], polygons[item])
+                entry = shapely.distance(shapely.points(points[todo][ray]), hit)
+                np.minimum.at(out, todo[ray], entry)
+            if reach >= length:
+                break
+            todo, reach = todo[np.isinf(out[todo])], min(length, 4 * reach)
+        return out
+
+    def _screen_tree(self) -> tuple[np.ndarray, shapely.STRtree]:
+        if self._screen is None:
+            items = np.flatnonzero(self.obstacle & (self.need > _SCREEN_SHRINK))
+            polygons = shapely.buffer(
+                self.layer.cores[items], self.need[items] - _SCREEN_SHRINK,
+                quad_segs=_SCREEN_QUAD_SEGS,
+            )
+            polygons = polygons[~shapely.is_empty(polygons)]
+            self._screen = (polygons, shapely.STRtree(polygons))
+        return self._screen
 
     def violations(self, segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(segment, item) pairs closer than allowed, at least one per failing segment.
@@ -461,12 +507,18 @@ class _Search:
         ends = np.array([start, goal], dtype=np.int64)
         self.corners = corners[~(corners[:, None, :] == ends[None]).all(axis=2).any(axis=1)]
         self.ends = ends
+        # Ray bounds (`_Rules.free`) per node (row 0 start, 1 goal, 2 + i corner i) and
+        # heading, found when first needed and kept while the window grows.
+        self.free = np.full((2 + len(self.corners), 8), np.nan)
+        self.points = np.concatenate([ends, self.corners]).astype(float)
+        self.reach = float(np.hypot(*(self.points.max(axis=0) - self.points.min(axis=0)))) + 2.0
 
     def run(self) -> RouteResult:
         lo, hi = self.ends.min(axis=0), self.ends.max(axis=0)
         margin = max(WINDOW_MIN, WINDOW_SHARE * float((hi - lo).max()))
         while True:
             inside = np.all((self.corners >= lo - margin) & (self.corners <= hi + margin), axis=1)
+            self.rows = np.concatenate([[0, 1], 2 + np.flatnonzero(inside)])
             result = self._astar(np.concatenate([self.ends, self.corners[inside]]))
             if result is not None or inside.all():
                 return result or self._fail("no path: the obstacles enclose the start or the goal")
@@ -514,20 +566,60 @@ class _Search:
             cost = g[v] + _octilinear_to(nodes, tuple(nodes[v]))
             targets = np.flatnonzero(~closed & (cost < g))
             if len(targets):
-                reached = targets[self._links_clear(nodes[v], nodes[targets])]
+                reached = targets[self._links_clear(v, targets)]
                 g[reached] = cost[reached]
                 parent[reached] = v
 
-    def _links_clear(self, a: np.ndarray, targets: np.ndarray) -> np.ndarray:
-        """Whether a clear straight or one-bend link joins a to each target (both one-bend
-        variants are checked in one batch: fewer, larger geometry calls are faster)."""
-        parts = [_link_segments(a, targets, variant) for variant in (0, 1)]
-        segments = np.concatenate([p[0] for p in parts])
-        owner = np.concatenate([p[1] + variant * len(targets) for variant, p in enumerate(parts)])
+    def _links_clear(self, v: int, targets: np.ndarray) -> np.ndarray:
+        """Whether a clear straight or one-bend link joins node v to each target node (both
+        one-bend variants are checked in one batch: fewer, larger geometry calls are faster).
+
+        Variants the ray screen proves blocked skip the exact test; the answer is the same."""
+        a, ends = self.nodes[v], self.nodes[targets]
         self.checks += len(targets)
-        bad = np.zeros(2 * len(targets), dtype=bool)
-        bad[owner[self.rules.failing(segments)]] = True
+        maybe = self._screen(v, targets)
+        parts = [_link_segments(a, ends[maybe[k]], k) for k in (0, 1)]
+        segments = np.concatenate([p[0] for p in parts])
+        owners = [np.flatnonzero(maybe[k])[p[1]] + k * len(targets) for k, p in enumerate(parts)]
+        bad = np.ones(2 * len(targets), dtype=bool)
+        bad[np.concatenate(owners)] = False
+        if len(segments):
+            bad[np.concatenate(owners)[self.rules.failing(segments)]] = True
         return ~bad[: len(targets)] | ~bad[len(targets) :]
+
+    def _screen(self, v: int, targets: np.ndarray) -> np.ndarray:
+        """(2, n): whether link variant 0 / 1 from v to each target may be clear. A variant is
+        out when one of its two segments is longer than the ray bound from its node end (the
+        first segment seen from v, the second from the target, looking back)."""
+        d = self.nodes[targets] - self.nodes[v]
+        m = np.minimum(np.abs(d[:, 0]), np.abs(d[:, 1]))
+        diag = np.sign(d) * m[:, None]
+        straight = d - diag
+        h_straight = _HEADING_INDEX[np.sign(straight[:, 0]) + 1, np.sign(straight[:, 1]) + 1]
+        h_diag = _HEADING_INDEX[np.sign(diag[:, 0]) + 1, np.sign(diag[:, 1]) + 1]
+        len_straight = np.abs(straight).max(axis=1).astype(float)
+        len_diag = m * _ROOT2
+        rows = self.rows[targets]
+        v_row = np.full(len(targets), self.rows[v])
+        first0 = self._too_long(v_row, h_straight, len_straight)
+        second0 = self._too_long(rows, _reverse(h_diag), len_diag)
+        first1 = self._too_long(v_row, h_diag, len_diag)
+        second1 = self._too_long(rows, _reverse(h_straight), len_straight)
+        return np.stack([~(first0 | second0), ~(first1 | second1)])
+
+    def _too_long(self, rows: np.ndarray, headings: np.ndarray, lengths: np.ndarray):
+        """Whether segments of these lengths from these nodes' rows along these headings
+        (-1: no segment) certainly fail."""
+        some = headings >= 0
+        rows, headings = rows[some], headings[some]
+        missing = np.isnan(self.free[rows, headings])
+        if missing.any():
+            keys = np.unique(np.stack([rows[missing], headings[missing]], axis=1), axis=0)
+            points = self.points[keys[:, 0]]
+            self.free[keys[:, 0], keys[:, 1]] = self.rules.free(points, keys[:, 1], self.reach)
+        out = np.zeros(len(lengths), dtype=bool)
+        out[some] = lengths[some] > self.free[rows, headings]
+        return out
 
     def _link(self, a: Point, b: Point, heading) -> tuple[Point, ...] | None:
         """A clear straight or one-bend path a-b (points after a), preferring no bend at a."""
@@ -615,6 +707,10 @@ def _link_segments(
     segments = np.concatenate([direct, first, second]).astype(float)
     owner = np.concatenate([owners[straight], owners[~straight], owners[~straight]])
     return segments, owner
+
+
+def _reverse(headings: np.ndarray) -> np.ndarray:
+    return np.where(headings >= 0, (headings + 4) % 8, -1)
 
 
 def _is_octilinear(a: np.ndarray, targets: np.ndarray) -> np.ndarray:
