@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from collections import OrderedDict
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import shapely
@@ -73,6 +74,8 @@ _HEADING_INDEX = np.array([[5, 4, 3], [6, -1, 2], [7, 0, 1]])
 # drawn as inscribed polygons, so whatever they touch violates the clearance beyond float doubt.
 _SCREEN_SHRINK = 1.0
 _SCREEN_QUAD_SEGS = 16
+# Batches of links with fewer (link, obstacle) pairs than this skip the ray screen.
+_SCREEN_PAIRS = 20_000
 
 
 @dataclass(frozen=True)
@@ -124,8 +127,12 @@ def _prepare(core: shapely.Geometry, radius: float) -> _Prepared:
 class _Layer:
     """Obstacles on one copper layer (items and board-edge segments) as parallel arrays."""
 
-    def __init__(self, records: list[tuple[str, str, int, _Prepared]], net_codes: dict[str, int]):
+    def __init__(self, records: list[tuple[str, str, int, _Prepared]]):
         # records: (kind, net, clearance, prepared); net "" and edges are obstacles to every net.
+        # Net codes are the layer's own, so that a layer depends on its records alone.
+        nets = sorted({r[1] for r in records} - {""})
+        net_codes = {"": 0, **{net: i for i, net in enumerate(nets, start=1)}}
+        self.net_codes = net_codes
         self.kind = [r[0] for r in records]
         self.net = [r[1] for r in records]
         self.code = np.array(
@@ -174,6 +181,7 @@ class _Rules:
         self.need = np.where(obstacle, need, -np.inf)
         self.reach = layer.support + self.need[:, None]
         self.max_need = float(need[obstacle].max()) if obstacle.any() else 0.0
+        self.obstacles = int(obstacle.sum())
         self._screen: tuple[np.ndarray, shapely.STRtree] | None = None
 
     def free(self, points: np.ndarray, headings: np.ndarray, length: float) -> np.ndarray:
@@ -304,6 +312,7 @@ class WalkaroundRouter:
         self.budget_checks = budget_checks
         self.budget_seconds = budget_seconds
         self._cache: dict[CopperItem, _Prepared] = {}
+        self._shared = _Memory()
         self.update(board)
 
     def with_board(self, board: BoardGeometry) -> WalkaroundRouter:
@@ -313,6 +322,7 @@ class WalkaroundRouter:
         other.budget_nodes, other.budget_checks = self.budget_nodes, self.budget_checks
         other.budget_seconds = self.budget_seconds
         other._cache = dict(self._cache)
+        other._shared = self._shared
         other.update(board)
         return other
 
@@ -325,16 +335,22 @@ class WalkaroundRouter:
         }
         self._region, edges = _board_region(board.outline)
         self._edge_records = [(_EDGE, "", board.edge_clearance, _prepare(e, 0.0)) for e in edges]
-        nets = sorted({item.net for item in items} - {""})
-        self._net_codes = {"": 0, **{net: i for i, net in enumerate(nets, start=1)}}
-        self._by_layer: dict[str, list] = {}
+        self._layer_items: dict[str, list[CopperItem]] = {}
         for item in items:
             for layer in item.layers:
-                self._by_layer.setdefault(layer, []).append(
-                    (item.kind, item.net, item.clearance, self._cache[item])
-                )
-        self._layers: dict[str, _Layer] = {}
+                self._layer_items.setdefault(layer, []).append(item)
+        self._keys: dict[str, _StateKey] = {}
         self._inset_corners: dict[float, np.ndarray] = {}
+
+    def _layer_key(self, layer: str) -> _StateKey:
+        """What a layer's answers depend on: the board outline, the edge clearance and the
+        layer's items. Layers, rules and routes are remembered under it (`_Memory`)."""
+        if layer not in self._keys:
+            self._keys[layer] = _StateKey(
+                (self.board.outline, self.board.edge_clearance,
+                 tuple(self._layer_items.get(layer, ())))
+            )
+        return self._keys[layer]
 
     # --- public checks ---
 
@@ -360,8 +376,22 @@ class WalkaroundRouter:
     # --- routing ---
 
     def route(self, request: RouteRequest) -> RouteResult:
+        """A path for the request. An answer depends only on the request, the budgets and the
+        request layer's state, so one asked again on an unchanged layer is remembered (unless
+        a wall-clock limit makes answers depend on the machine)."""
         clock = time.perf_counter()
+        key = None
+        if self.budget_seconds is None:
+            key = (self._layer_key(request.layer), request, self.budget_nodes, self.budget_checks)
+            known = self._shared.routes.get(key)
+            if known is not None:
+                self._shared.routes.move_to_end(key)
+                stats = {**known.stats, "seconds": time.perf_counter() - clock}
+                return RouteResult(known.path, known.reason, stats)
         result = self._route(request, clock)
+        if key is not None:
+            kept = replace(result, stats=dict(result.stats))
+            self._shared.remember(self._shared.routes, key, kept)
         result.stats["seconds"] = time.perf_counter() - clock
         return result
 
@@ -391,11 +421,24 @@ class WalkaroundRouter:
     # --- internals ---
 
     def _rules(self, net: str, layer: str, width: int, clearance: int) -> _Rules:
-        if layer not in self._layers:
-            records = self._by_layer.get(layer, []) + self._edge_records
-            self._layers[layer] = _Layer(records, self._net_codes)
-        code = self._net_codes.get(net, -2)  # an unknown net owns nothing on the board
-        return _Rules(self._layers[layer], code, width / 2, clearance, self.board.edge_clearance)
+        key = self._layer_key(layer)
+        rules_key = (key, net, width, clearance)
+        memory = self._shared
+        if rules_key in memory.rules:
+            memory.rules.move_to_end(rules_key)
+            return memory.rules[rules_key]
+        if key not in memory.layers:
+            records = [
+                (item.kind, item.net, item.clearance, self._cache[item])
+                for item in self._layer_items.get(layer, ())
+            ]
+            memory.remember(memory.layers, key, _Layer(records + self._edge_records))
+        shape = memory.layers[key]
+        memory.layers.move_to_end(key)
+        code = shape.net_codes.get(net, -2)  # a net with no copper here owns nothing
+        rules = _Rules(shape, code, width / 2, clearance, self.board.edge_clearance)
+        memory.remember(memory.rules, rules_key, rules)
+        return rules
 
     def _inside(self, points: np.ndarray) -> np.ndarray:
         if self._region is None:
@@ -448,6 +491,44 @@ class WalkaroundRouter:
                 points = _round_outwards(points, np.sign(centre - points))
             self._inset_corners[half_width] = points
         return self._inset_corners[half_width]
+
+
+class _StateKey:
+    """A large hashable value with its hash worked out once (a layer's items)."""
+
+    __slots__ = ("value", "hash")
+
+    def __init__(self, value: tuple):
+        self.value, self.hash = value, hash(value)
+
+    def __hash__(self) -> int:
+        return self.hash
+
+    def __eq__(self, other: object) -> bool:
+        return (
+            isinstance(other, _StateKey) and self.hash == other.hash and self.value == other.value
+        )
+
+
+class _Memory:
+    """What a router and the routers made from it (`with_board`) remember between searches,
+    each under the state it was worked out for, so a copper change on one layer leaves the
+    others' entries valid. Least recently used entries go first."""
+
+    LAYERS, RULES, ROUTES = 8, 32, 256
+
+    def __init__(self) -> None:
+        self.layers: OrderedDict = OrderedDict()
+        self.rules: OrderedDict = OrderedDict()
+        self.routes: OrderedDict = OrderedDict()
+
+    def remember(self, table: OrderedDict, key, value) -> None:
+        table[key] = value
+        limit = {id(self.layers): self.LAYERS, id(self.rules): self.RULES}.get(
+            id(table), self.ROUTES
+        )
+        while len(table) > limit:
+            table.popitem(last=False)
 
 
 def _round_outwards(points: np.ndarray, signs: np.ndarray) -> np.ndarray:
@@ -577,7 +658,10 @@ class _Search:
         Variants the ray screen proves blocked skip the exact test; the answer is the same."""
         a, ends = self.nodes[v], self.nodes[targets]
         self.checks += len(targets)
-        maybe = self._screen(v, targets)
+        if len(targets) * self.rules.obstacles > _SCREEN_PAIRS:
+            maybe = self._screen(v, targets)
+        else:  # a small batch: the exact test costs less than the rays
+            maybe = np.ones((2, len(targets)), dtype=bool)
         parts = [_link_segments(a, ends[maybe[k]], k) for k in (0, 1)]
         segments = np.concatenate([p[0] for p in parts])
         owners = [np.flatnonzero(maybe[k])[p[1]] + k * len(targets) for k, p in enumerate(parts)]
