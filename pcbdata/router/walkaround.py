@@ -76,6 +76,7 @@ _SCREEN_SHRINK = 1.0
 _SCREEN_QUAD_SEGS = 16
 # Batches of links with fewer (link, obstacle) pairs than this skip the ray screen.
 _SCREEN_PAIRS = 20_000
+_SCREEN_LINKS = 64  # ... unless they hold this many links
 
 
 @dataclass(frozen=True)
@@ -658,7 +659,7 @@ class _Search:
         Variants the ray screen proves blocked skip the exact test; the answer is the same."""
         a, ends = self.nodes[v], self.nodes[targets]
         self.checks += len(targets)
-        if len(targets) * self.rules.obstacles > _SCREEN_PAIRS:
+        if len(targets) * self.rules.obstacles > _SCREEN_PAIRS or len(targets) >= _SCREEN_LINKS:
             maybe = self._screen(v, targets)
         else:  # a small batch: the exact test costs less than the rays
             maybe = np.ones((2, len(targets)), dtype=bool)
