@@ -184,6 +184,11 @@ class _Rules:
         self.max_need = float(need[obstacle].max()) if obstacle.any() else 0.0
         self.obstacles = int(obstacle.sum())
         self._screen: tuple[np.ndarray, shapely.STRtree] | None = None
+        # Kept for later searches under the same rules (see `WalkaroundRouter._rules`): the
+        # search's corner nodes and ray bounds by (x, y, heading).
+        self.corners: np.ndarray | None = None
+        self.rays: dict[tuple[int, int, int], float] = {}
+        self.ray_reach = 0.0
 
     def free(self, points: np.ndarray, headings: np.ndarray, length: float) -> np.ndarray:
         """How far a track may run from each point along its heading (index into `_HEADINGS`)
@@ -577,15 +582,17 @@ class _Search:
         self.router, self.rules, self.clock = router, rules, clock
         self.start, self.goal = start, goal
         self.checks = self.expanded = 0
-        corners = router._corner_nodes(rules)
-        if len(corners):
-            corners = corners[router._inside(corners)]
-            corners = corners[~rules.failing(np.stack([corners, corners], axis=1))]
-        corners = (
-            np.unique(corners, axis=0).astype(np.int64)
-            if len(corners)
-            else np.empty((0, 2), np.int64)
-        )
+        if rules.corners is None:  # the same for every search under these rules
+            corners = router._corner_nodes(rules)
+            if len(corners):
+                corners = corners[router._inside(corners)]
+                corners = corners[~rules.failing(np.stack([corners, corners], axis=1))]
+            rules.corners = (
+                np.unique(corners, axis=0).astype(np.int64)
+                if len(corners)
+                else np.empty((0, 2), np.int64)
+            )
+        corners = rules.corners
         ends = np.array([start, goal], dtype=np.int64)
         self.corners = corners[~(corners[:, None, :] == ends[None]).all(axis=2).any(axis=1)]
         self.ends = ends
@@ -593,7 +600,11 @@ class _Search:
         # heading, found when first needed and kept while the window grows.
         self.free = np.full((2 + len(self.corners), 8), np.nan)
         self.points = np.concatenate([ends, self.corners]).astype(float)
-        self.reach = float(np.hypot(*(self.points.max(axis=0) - self.points.min(axis=0)))) + 2.0
+        reach = float(np.hypot(*(self.points.max(axis=0) - self.points.min(axis=0)))) + 2.0
+        if reach > rules.ray_reach:  # kept bounds may be infinite only for want of reach
+            rules.rays.clear()
+            rules.ray_reach = 2 * reach
+        self.reach = rules.ray_reach
 
     def run(self) -> RouteResult:
         lo, hi = self.ends.min(axis=0), self.ends.max(axis=0)
@@ -692,6 +703,19 @@ class _Search:
         second1 = self._too_long(rows, _reverse(h_straight), len_straight)
         return np.stack([~(first0 | second0), ~(first1 | second1)])
 
+    def _fill(self, keys: np.ndarray) -> None:
+        """Ray bounds for these (row, heading) pairs: from earlier searches under the same
+        rules when they reached as far, else worked out now."""
+        points = self.points[keys[:, 0]]
+        names = [(int(x), int(y), int(h)) for (x, y), h in zip(points, keys[:, 1])]
+        known = self.rules.rays
+        bounds = np.array([known.get(name, np.nan) for name in names])
+        todo = np.isnan(bounds)
+        if todo.any():
+            bounds[todo] = self.rules.free(points[todo], keys[todo, 1], self.reach)
+            known.update(zip([n for n, t in zip(names, todo) if t], bounds[todo].tolist()))
+        self.free[keys[:, 0], keys[:, 1]] = bounds
+
     def _too_long(self, rows: np.ndarray, headings: np.ndarray, lengths: np.ndarray):
         """Whether segments of these lengths from these nodes' rows along these headings
         (-1: no segment) certainly fail."""
@@ -699,9 +723,7 @@ class _Search:
         rows, headings = rows[some], headings[some]
         missing = np.isnan(self.free[rows, headings])
         if missing.any():
-            keys = np.unique(np.stack([rows[missing], headings[missing]], axis=1), axis=0)
-            points = self.points[keys[:, 0]]
-            self.free[keys[:, 0], keys[:, 1]] = self.rules.free(points, keys[:, 1], self.reach)
+            self._fill(np.unique(np.stack([rows[missing], headings[missing]], axis=1), axis=0))
         out = np.zeros(len(lengths), dtype=bool)
         out[some] = lengths[some] > self.free[rows, headings]
         return out
