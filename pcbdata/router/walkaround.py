@@ -14,9 +14,19 @@ Corner nodes are rounded to integer nm away from their obstacle (see `_corner_no
 Tries, cheapest first: the straight segment (when start-goal is octilinear), the two one-bend
 paths, then a search. The search graph's nodes are the corners of octagonal keep-outs around
 obstacles (edges at 0/45/90/135 degrees, so paths hug obstacles along octilinear lines) and
-the inset board corners; two nodes are linked by a straight or one-bend octilinear path. A*
-runs lazily: a link is checked only when A* pops the node it leads to, which keeps the number
-of geometry checks near the number of expansions.
+the inset board corners; two nodes are linked by a straight or one-bend octilinear path.
+Expanding a node checks, in one batch, its links to every node whose cost they would lower.
+
+Most of those links are blocked, so a cheap screen goes first: a ray from a node along a
+heading meets a keep-out drawn just inside the true one (`_Rules.free`); a link segment longer
+than that bound from either of its node ends certainly violates and skips the exact test. The
+screen only ever removes links that the exact test would refuse, so verdicts, paths and the
+counted work (`checks` counts links asked, screened or not) are those of the exact test alone.
+What a search works out is kept under the state it depends on (the request layer's items,
+outline and edge clearance; `_Memory`): the layer's index, per net and width the keep-outs,
+corner nodes and ray bounds, and whole answers, so a request asked again on an unchanged layer
+(push_n_shove first retries the walkaround that just failed) costs nothing, and copper added on
+one layer leaves the others' entries valid.
 """
 
 from __future__ import annotations
