@@ -87,6 +87,10 @@ _SCREEN_QUAD_SEGS = 16
 # Batches of links with fewer (link, obstacle) pairs than this skip the ray screen.
 _SCREEN_PAIRS = 20_000
 _SCREEN_LINKS = 64  # ... unless they hold this many links
+# A search stops screening when, after this many link variants, it rules out less than this
+# share of them.
+_SCREEN_TRIAL = 2_000
+_SCREEN_SHARE = 0.9
 
 
 @dataclass(frozen=True)
@@ -592,6 +596,7 @@ class _Search:
         self.router, self.rules, self.clock = router, rules, clock
         self.start, self.goal = start, goal
         self.checks = self.expanded = 0
+        self.screened = self.ruled_out = 0  # link variants put to the ray screen; ruled out
         if rules.corners is None:  # the same for every search under these rules
             corners = router._corner_nodes(rules)
             if len(corners):
@@ -680,8 +685,11 @@ class _Search:
         Variants the ray screen proves blocked skip the exact test; the answer is the same."""
         a, ends = self.nodes[v], self.nodes[targets]
         self.checks += len(targets)
-        if len(targets) * self.rules.obstacles > _SCREEN_PAIRS or len(targets) >= _SCREEN_LINKS:
+        big = len(targets) * self.rules.obstacles > _SCREEN_PAIRS or len(targets) >= _SCREEN_LINKS
+        if big and self._screen_pays():
             maybe = self._screen(v, targets)
+            self.screened += maybe.size
+            self.ruled_out += int((~maybe).sum())
         else:  # a small batch: the exact test costs less than the rays
             maybe = np.ones((2, len(targets)), dtype=bool)
         parts = [_link_segments(a, ends[maybe[k]], k) for k in (0, 1)]
@@ -692,6 +700,12 @@ class _Search:
         if len(segments):
             bad[np.concatenate(owners)[self.rules.failing(segments)]] = True
         return ~bad[: len(targets)] | ~bad[len(targets) :]
+
+    def _screen_pays(self) -> bool:
+        """Whether the screen still rules out enough to be worth its rays (on open boards
+        most links are clear and the exact test alone is cheaper). Either way the answers
+        are the same."""
+        return self.screened < _SCREEN_TRIAL or self.ruled_out >= _SCREEN_SHARE * self.screened
 
     def _screen(self, v: int, targets: np.ndarray) -> np.ndarray:
         """(2, n): whether link variant 0 / 1 from v to each target may be clear. A variant is
