@@ -14,16 +14,27 @@ Corner nodes are rounded to integer nm away from their obstacle (see `_corner_no
 Tries, cheapest first: the straight segment (when start-goal is octilinear), the two one-bend
 paths, then a search. The search graph's nodes are the corners of octagonal keep-outs around
 obstacles (edges at 0/45/90/135 degrees, so paths hug obstacles along octilinear lines) and
-the inset board corners; two nodes are linked by a straight or one-bend octilinear path. A*
-runs lazily: a link is checked only when A* pops the node it leads to, which keeps the number
-of geometry checks near the number of expansions.
+the inset board corners; two nodes are linked by a straight or one-bend octilinear path.
+Expanding a node checks, in one batch, its links to every node whose cost they would lower.
+
+Most of those links are blocked, so a cheap screen goes first: a ray from a node along a
+heading meets a keep-out drawn just inside the true one (`_Rules.free`); a link segment longer
+than that bound from either of its node ends certainly violates and skips the exact test. The
+screen only ever removes links that the exact test would refuse, so verdicts, paths and the
+counted work (`checks` counts links asked, screened or not) are those of the exact test alone.
+What a search works out is kept under the state it depends on (the request layer's items,
+outline and edge clearance; `_Memory`): the layer's index, per net and width the keep-outs,
+corner nodes and ray bounds, and whole answers, so a request asked again on an unchanged layer
+(push_n_shove first retries the walkaround that just failed) costs nothing, and copper added on
+one layer leaves the others' entries valid.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from collections import OrderedDict
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import shapely
@@ -65,6 +76,21 @@ BUDGET_CHECKS = 400_000
 # Up to this many (segment, obstacle) pairs are screened all at once; more go through the
 # layer's R-tree first.
 _DENSE_PAIRS = 20_000
+# Unit vectors of the eight octilinear headings (index k: k * 45 degrees) and the index of a
+# heading given as a pair of signs, at [sx + 1, sy + 1].
+_HEADINGS = _NORMALS
+_HEADING_INDEX = np.array([[5, 4, 3], [6, -1, 2], [7, 0, 1]])
+# Keep-outs for the ray screen (see `_Rules.free`): the allowed distance less this much (nm),
+# drawn as inscribed polygons, so whatever they touch violates the clearance beyond float doubt.
+_SCREEN_SHRINK = 1.0
+_SCREEN_QUAD_SEGS = 16
+# Batches of links with fewer (link, obstacle) pairs than this skip the ray screen.
+_SCREEN_PAIRS = 20_000
+_SCREEN_LINKS = 64  # ... unless they hold this many links
+# A search stops screening when, after this many link variants, it rules out less than this
+# share of them.
+_SCREEN_TRIAL = 2_000
+_SCREEN_SHARE = 0.9
 
 
 @dataclass(frozen=True)
@@ -116,8 +142,12 @@ def _prepare(core: shapely.Geometry, radius: float) -> _Prepared:
 class _Layer:
     """Obstacles on one copper layer (items and board-edge segments) as parallel arrays."""
 
-    def __init__(self, records: list[tuple[str, str, int, _Prepared]], net_codes: dict[str, int]):
+    def __init__(self, records: list[tuple[str, str, int, _Prepared]]):
         # records: (kind, net, clearance, prepared); net "" and edges are obstacles to every net.
+        # Net codes are the layer's own, so that a layer depends on its records alone.
+        nets = sorted({r[1] for r in records} - {""})
+        net_codes = {"": 0, **{net: i for i, net in enumerate(nets, start=1)}}
+        self.net_codes = net_codes
         self.kind = [r[0] for r in records]
         self.net = [r[1] for r in records]
         self.code = np.array(
@@ -166,6 +196,50 @@ class _Rules:
         self.need = np.where(obstacle, need, -np.inf)
         self.reach = layer.support + self.need[:, None]
         self.max_need = float(need[obstacle].max()) if obstacle.any() else 0.0
+        self.obstacles = int(obstacle.sum())
+        self._screen: tuple[np.ndarray, shapely.STRtree] | None = None
+        # Kept for later searches under the same rules (see `WalkaroundRouter._rules`): the
+        # search's corner nodes and ray bounds by (x, y, heading).
+        self.corners: np.ndarray | None = None
+        self.rays: dict[tuple[int, int, int], float] = {}
+        self.ray_reach = 0.0
+
+    def free(self, points: np.ndarray, headings: np.ndarray, length: float) -> np.ndarray:
+        """How far a track may run from each point along its heading (index into `_HEADINGS`)
+        at most: beyond it the track certainly violates clearance; up to it, it may or may not.
+
+        The bound is where the ray enters a keep-out drawn inside the true one (see
+        `_SCREEN_SHRINK`), so a segment longer than it fails for sure: the search uses it to
+        skip the exact test of links that cannot be clear. `length`: the rays' reach (nm)."""
+        polygons, tree = self._screen_tree()
+        out = np.full(len(points), np.inf)
+        if not len(polygons):
+            return out
+        # Short rays first: most meet a keep-out soon, and a short ray meets few.
+        todo, reach = np.arange(len(points)), min(length, 4 * self.max_need)
+        while len(todo):
+            ends = points[todo] + _HEADINGS[headings[todo]] * reach
+            rays = shapely.linestrings(np.stack([points[todo], ends], axis=1))
+            ray, item = tree.query(rays, predicate="intersects")
+            if len(ray):
+                hit = shapely.intersection(rays[ray], polygons[item])
+                entry = shapely.distance(shapely.points(points[todo][ray]), hit)
+                np.minimum.at(out, todo[ray], entry)
+            if reach >= length:
+                break
+            todo, reach = todo[np.isinf(out[todo])], min(length, 4 * reach)
+        return out
+
+    def _screen_tree(self) -> tuple[np.ndarray, shapely.STRtree]:
+        if self._screen is None:
+            items = np.flatnonzero(self.obstacle & (self.need > _SCREEN_SHRINK))
+            polygons = shapely.buffer(
+                self.layer.cores[items], self.need[items] - _SCREEN_SHRINK,
+                quad_segs=_SCREEN_QUAD_SEGS,
+            )
+            polygons = polygons[~shapely.is_empty(polygons)]
+            self._screen = (polygons, shapely.STRtree(polygons))
+        return self._screen
 
     def violations(self, segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(segment, item) pairs closer than allowed, at least one per failing segment.
@@ -258,6 +332,7 @@ class WalkaroundRouter:
         self.budget_checks = budget_checks
         self.budget_seconds = budget_seconds
         self._cache: dict[CopperItem, _Prepared] = {}
+        self._shared = _Memory()
         self.update(board)
 
     def with_board(self, board: BoardGeometry) -> WalkaroundRouter:
@@ -267,6 +342,7 @@ class WalkaroundRouter:
         other.budget_nodes, other.budget_checks = self.budget_nodes, self.budget_checks
         other.budget_seconds = self.budget_seconds
         other._cache = dict(self._cache)
+        other._shared = self._shared
         other.update(board)
         return other
 
@@ -279,16 +355,22 @@ class WalkaroundRouter:
         }
         self._region, edges = _board_region(board.outline)
         self._edge_records = [(_EDGE, "", board.edge_clearance, _prepare(e, 0.0)) for e in edges]
-        nets = sorted({item.net for item in items} - {""})
-        self._net_codes = {"": 0, **{net: i for i, net in enumerate(nets, start=1)}}
-        self._by_layer: dict[str, list] = {}
+        self._layer_items: dict[str, list[CopperItem]] = {}
         for item in items:
             for layer in item.layers:
-                self._by_layer.setdefault(layer, []).append(
-                    (item.kind, item.net, item.clearance, self._cache[item])
-                )
-        self._layers: dict[str, _Layer] = {}
+                self._layer_items.setdefault(layer, []).append(item)
+        self._keys: dict[str, _StateKey] = {}
         self._inset_corners: dict[float, np.ndarray] = {}
+
+    def _layer_key(self, layer: str) -> _StateKey:
+        """What a layer's answers depend on: the board outline, the edge clearance and the
+        layer's items. Layers, rules and routes are remembered under it (`_Memory`)."""
+        if layer not in self._keys:
+            self._keys[layer] = _StateKey(
+                (self.board.outline, self.board.edge_clearance,
+                 tuple(self._layer_items.get(layer, ())))
+            )
+        return self._keys[layer]
 
     # --- public checks ---
 
@@ -314,8 +396,22 @@ class WalkaroundRouter:
     # --- routing ---
 
     def route(self, request: RouteRequest) -> RouteResult:
+        """A path for the request. An answer depends only on the request, the budgets and the
+        request layer's state, so one asked again on an unchanged layer is remembered (unless
+        a wall-clock limit makes answers depend on the machine)."""
         clock = time.perf_counter()
+        key = None
+        if self.budget_seconds is None:
+            key = (self._layer_key(request.layer), request, self.budget_nodes, self.budget_checks)
+            known = self._shared.routes.get(key)
+            if known is not None:
+                self._shared.routes.move_to_end(key)
+                stats = {**known.stats, "seconds": time.perf_counter() - clock}
+                return RouteResult(known.path, known.reason, stats)
         result = self._route(request, clock)
+        if key is not None:
+            kept = replace(result, stats=dict(result.stats))
+            self._shared.remember(self._shared.routes, key, kept)
         result.stats["seconds"] = time.perf_counter() - clock
         return result
 
@@ -345,11 +441,24 @@ class WalkaroundRouter:
     # --- internals ---
 
     def _rules(self, net: str, layer: str, width: int, clearance: int) -> _Rules:
-        if layer not in self._layers:
-            records = self._by_layer.get(layer, []) + self._edge_records
-            self._layers[layer] = _Layer(records, self._net_codes)
-        code = self._net_codes.get(net, -2)  # an unknown net owns nothing on the board
-        return _Rules(self._layers[layer], code, width / 2, clearance, self.board.edge_clearance)
+        key = self._layer_key(layer)
+        rules_key = (key, net, width, clearance)
+        memory = self._shared
+        if rules_key in memory.rules:
+            memory.rules.move_to_end(rules_key)
+            return memory.rules[rules_key]
+        if key not in memory.layers:
+            records = [
+                (item.kind, item.net, item.clearance, self._cache[item])
+                for item in self._layer_items.get(layer, ())
+            ]
+            memory.remember(memory.layers, key, _Layer(records + self._edge_records))
+        shape = memory.layers[key]
+        memory.layers.move_to_end(key)
+        code = shape.net_codes.get(net, -2)  # a net with no copper here owns nothing
+        rules = _Rules(shape, code, width / 2, clearance, self.board.edge_clearance)
+        memory.remember(memory.rules, rules_key, rules)
+        return rules
 
     def _inside(self, points: np.ndarray) -> np.ndarray:
         if self._region is None:
@@ -404,6 +513,44 @@ class WalkaroundRouter:
         return self._inset_corners[half_width]
 
 
+class _StateKey:
+    """A large hashable value with its hash worked out once (a layer's items)."""
+
+    __slots__ = ("value", "hash")
+
+    def __init__(self, value: tuple):
+        self.value, self.hash = value, hash(value)
+
+    def __hash__(self) -> int:
+        return self.hash
+
+    def __eq__(self, other: object) -> bool:
+        return (
+            isinstance(other, _StateKey) and self.hash == other.hash and self.value == other.value
+        )
+
+
+class _Memory:
+    """What a router and the routers made from it (`with_board`) remember between searches,
+    each under the state it was worked out for, so a copper change on one layer leaves the
+    others' entries valid. Least recently used entries go first."""
+
+    LAYERS, RULES, ROUTES = 8, 32, 256
+
+    def __init__(self) -> None:
+        self.layers: OrderedDict = OrderedDict()
+        self.rules: OrderedDict = OrderedDict()
+        self.routes: OrderedDict = OrderedDict()
+
+    def remember(self, table: OrderedDict, key, value) -> None:
+        table[key] = value
+        limit = {id(self.layers): self.LAYERS, id(self.rules): self.RULES}.get(
+            id(table), self.ROUTES
+        )
+        while len(table) > limit:
+            table.popitem(last=False)
+
+
 def _round_outwards(points: np.ndarray, signs: np.ndarray) -> np.ndarray:
     """Rounds each coordinate to an integer in the direction of its sign (0: nearest). A
     value within a few `TOLERANCE` of an integer is that integer: a side at an exact integer
@@ -449,24 +596,37 @@ class _Search:
         self.router, self.rules, self.clock = router, rules, clock
         self.start, self.goal = start, goal
         self.checks = self.expanded = 0
-        corners = router._corner_nodes(rules)
-        if len(corners):
-            corners = corners[router._inside(corners)]
-            corners = corners[~rules.failing(np.stack([corners, corners], axis=1))]
-        corners = (
-            np.unique(corners, axis=0).astype(np.int64)
-            if len(corners)
-            else np.empty((0, 2), np.int64)
-        )
+        self.screened = self.ruled_out = 0  # link variants put to the ray screen; ruled out
+        if rules.corners is None:  # the same for every search under these rules
+            corners = router._corner_nodes(rules)
+            if len(corners):
+                corners = corners[router._inside(corners)]
+                corners = corners[~rules.failing(np.stack([corners, corners], axis=1))]
+            rules.corners = (
+                np.unique(corners, axis=0).astype(np.int64)
+                if len(corners)
+                else np.empty((0, 2), np.int64)
+            )
+        corners = rules.corners
         ends = np.array([start, goal], dtype=np.int64)
         self.corners = corners[~(corners[:, None, :] == ends[None]).all(axis=2).any(axis=1)]
         self.ends = ends
+        # Ray bounds (`_Rules.free`) per node (row 0 start, 1 goal, 2 + i corner i) and
+        # heading, found when first needed and kept while the window grows.
+        self.free = np.full((2 + len(self.corners), 8), np.nan)
+        self.points = np.concatenate([ends, self.corners]).astype(float)
+        reach = float(np.hypot(*(self.points.max(axis=0) - self.points.min(axis=0)))) + 2.0
+        if reach > rules.ray_reach:  # kept bounds may be infinite only for want of reach
+            rules.rays.clear()
+            rules.ray_reach = 2 * reach
+        self.reach = rules.ray_reach
 
     def run(self) -> RouteResult:
         lo, hi = self.ends.min(axis=0), self.ends.max(axis=0)
         margin = max(WINDOW_MIN, WINDOW_SHARE * float((hi - lo).max()))
         while True:
             inside = np.all((self.corners >= lo - margin) & (self.corners <= hi + margin), axis=1)
+            self.rows = np.concatenate([[0, 1], 2 + np.flatnonzero(inside)])
             result = self._astar(np.concatenate([self.ends, self.corners[inside]]))
             if result is not None or inside.all():
                 return result or self._fail("no path: the obstacles enclose the start or the goal")
@@ -514,20 +674,83 @@ class _Search:
             cost = g[v] + _octilinear_to(nodes, tuple(nodes[v]))
             targets = np.flatnonzero(~closed & (cost < g))
             if len(targets):
-                reached = targets[self._links_clear(nodes[v], nodes[targets])]
+                reached = targets[self._links_clear(v, targets)]
                 g[reached] = cost[reached]
                 parent[reached] = v
 
-    def _links_clear(self, a: np.ndarray, targets: np.ndarray) -> np.ndarray:
-        """Whether a clear straight or one-bend link joins a to each target (both one-bend
-        variants are checked in one batch: fewer, larger geometry calls are faster)."""
-        parts = [_link_segments(a, targets, variant) for variant in (0, 1)]
-        segments = np.concatenate([p[0] for p in parts])
-        owner = np.concatenate([p[1] + variant * len(targets) for variant, p in enumerate(parts)])
+    def _links_clear(self, v: int, targets: np.ndarray) -> np.ndarray:
+        """Whether a clear straight or one-bend link joins node v to each target node (both
+        one-bend variants are checked in one batch: fewer, larger geometry calls are faster).
+
+        Variants the ray screen proves blocked skip the exact test; the answer is the same."""
+        a, ends = self.nodes[v], self.nodes[targets]
         self.checks += len(targets)
-        bad = np.zeros(2 * len(targets), dtype=bool)
-        bad[owner[self.rules.failing(segments)]] = True
+        big = len(targets) * self.rules.obstacles > _SCREEN_PAIRS or len(targets) >= _SCREEN_LINKS
+        if big and self._screen_pays():
+            maybe = self._screen(v, targets)
+            self.screened += maybe.size
+            self.ruled_out += int((~maybe).sum())
+        else:  # a small batch: the exact test costs less than the rays
+            maybe = np.ones((2, len(targets)), dtype=bool)
+        parts = [_link_segments(a, ends[maybe[k]], k) for k in (0, 1)]
+        segments = np.concatenate([p[0] for p in parts])
+        owners = [np.flatnonzero(maybe[k])[p[1]] + k * len(targets) for k, p in enumerate(parts)]
+        bad = np.ones(2 * len(targets), dtype=bool)
+        bad[np.concatenate(owners)] = False
+        if len(segments):
+            bad[np.concatenate(owners)[self.rules.failing(segments)]] = True
         return ~bad[: len(targets)] | ~bad[len(targets) :]
+
+    def _screen_pays(self) -> bool:
+        """Whether the screen still rules out enough to be worth its rays (on open boards
+        most links are clear and the exact test alone is cheaper). Either way the answers
+        are the same."""
+        return self.screened < _SCREEN_TRIAL or self.ruled_out >= _SCREEN_SHARE * self.screened
+
+    def _screen(self, v: int, targets: np.ndarray) -> np.ndarray:
+        """(2, n): whether link variant 0 / 1 from v to each target may be clear. A variant is
+        out when one of its two segments is longer than the ray bound from its node end (the
+        first segment seen from v, the second from the target, looking back)."""
+        d = self.nodes[targets] - self.nodes[v]
+        m = np.minimum(np.abs(d[:, 0]), np.abs(d[:, 1]))
+        diag = np.sign(d) * m[:, None]
+        straight = d - diag
+        h_straight = _HEADING_INDEX[np.sign(straight[:, 0]) + 1, np.sign(straight[:, 1]) + 1]
+        h_diag = _HEADING_INDEX[np.sign(diag[:, 0]) + 1, np.sign(diag[:, 1]) + 1]
+        len_straight = np.abs(straight).max(axis=1).astype(float)
+        len_diag = m * _ROOT2
+        rows = self.rows[targets]
+        v_row = np.full(len(targets), self.rows[v])
+        first0 = self._too_long(v_row, h_straight, len_straight)
+        second0 = self._too_long(rows, _reverse(h_diag), len_diag)
+        first1 = self._too_long(v_row, h_diag, len_diag)
+        second1 = self._too_long(rows, _reverse(h_straight), len_straight)
+        return np.stack([~(first0 | second0), ~(first1 | second1)])
+
+    def _fill(self, keys: np.ndarray) -> None:
+        """Ray bounds for these (row, heading) pairs: from earlier searches under the same
+        rules when they reached as far, else worked out now."""
+        points = self.points[keys[:, 0]]
+        names = [(int(x), int(y), int(h)) for (x, y), h in zip(points, keys[:, 1])]
+        known = self.rules.rays
+        bounds = np.array([known.get(name, np.nan) for name in names])
+        todo = np.isnan(bounds)
+        if todo.any():
+            bounds[todo] = self.rules.free(points[todo], keys[todo, 1], self.reach)
+            known.update(zip([n for n, t in zip(names, todo) if t], bounds[todo].tolist()))
+        self.free[keys[:, 0], keys[:, 1]] = bounds
+
+    def _too_long(self, rows: np.ndarray, headings: np.ndarray, lengths: np.ndarray):
+        """Whether segments of these lengths from these nodes' rows along these headings
+        (-1: no segment) certainly fail."""
+        some = headings >= 0
+        rows, headings = rows[some], headings[some]
+        missing = np.isnan(self.free[rows, headings])
+        if missing.any():
+            self._fill(np.unique(np.stack([rows[missing], headings[missing]], axis=1), axis=0))
+        out = np.zeros(len(lengths), dtype=bool)
+        out[some] = lengths[some] > self.free[rows, headings]
+        return out
 
     def _link(self, a: Point, b: Point, heading) -> tuple[Point, ...] | None:
         """A clear straight or one-bend path a-b (points after a), preferring no bend at a."""
@@ -615,6 +838,10 @@ def _link_segments(
     segments = np.concatenate([direct, first, second]).astype(float)
     owner = np.concatenate([owners[straight], owners[~straight], owners[~straight]])
     return segments, owner
+
+
+def _reverse(headings: np.ndarray) -> np.ndarray:
+    return np.where(headings >= 0, (headings + 4) % 8, -1)
 
 
 def _is_octilinear(a: np.ndarray, targets: np.ndarray) -> np.ndarray:

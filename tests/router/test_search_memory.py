@@ -1,0 +1,111 @@
+"""The walkaround router's shortcuts (issue 25): the ray screen that skips exact tests of links
+that cannot be clear, the answers remembered per layer state, and paths no worse than the
+router before them (revision 5a7faa8, recorded in data/d2_paths_5a7faa8.json)."""
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from pcbdata.router.geometry import CopperItem, bends, octilinear_length
+from pcbdata.router.walkaround import WalkaroundRouter, _link_segments, _Search
+from tests.router.test_walkaround import MM, _pillar_maze, assert_legal, board, pad, request, wall
+
+BASELINE = Path(__file__).parent / "data" / "d2_paths_5a7faa8.json"
+
+
+def _exact_variants(search: _Search, v: int, targets: np.ndarray) -> np.ndarray:
+    """(2, n): whether link variant 0 / 1 from node v to each target is clear (exact test)."""
+    out = np.zeros((2, len(targets)), dtype=bool)
+    for k in (0, 1):
+        segments, owner = _link_segments(search.nodes[v], search.nodes[targets], k)
+        bad = np.zeros(len(targets), dtype=bool)
+        bad[owner[search.rules.failing(segments)]] = True
+        out[k] = ~bad
+    return out
+
+
+def test_the_ray_screen_never_rules_out_a_clear_link():
+    geometry, req = _pillar_maze()
+    router = WalkaroundRouter(geometry)
+    rules = router._rules(req.net, req.layer, req.width, req.clearance)
+    search = _Search(router, rules, req.start, req.goal, time.perf_counter())
+    search.nodes = np.concatenate([search.ends, search.corners])
+    search.rows = np.arange(len(search.nodes))
+    ruled_out = clear = total = 0
+    for v in range(0, len(search.nodes), 7):
+        targets = np.setdiff1d(np.arange(len(search.nodes)), [v])
+        maybe = search._screen(v, targets)
+        exact = _exact_variants(search, v, targets)
+        assert not (exact & ~maybe).any(), f"node {v}: a clear link was ruled out"
+        ruled_out += int((~maybe).sum())
+        clear += int(exact.sum())
+        total += exact.size
+    # The screen does its job: nearly every blocked link variant is ruled out without the
+    # exact test.
+    assert clear > 0 and ruled_out >= 0.9 * (total - clear), (ruled_out, total, clear)
+
+
+def test_an_answer_is_remembered_until_its_layer_changes():
+    items = [pad("A", 3, 10), pad("A", 17, 10), wall("B", 10, 4, 10, 16)]
+    req = request("A", (3, 10), (17, 10))
+    router = WalkaroundRouter(board(*items))
+    first = router.route(req)
+    assert first.path is not None and first.stats["method"] == "search"
+    remembered = len(router._shared.routes)
+    again = router.route(req)
+    assert again.path == first.path and len(router._shared.routes) == remembered
+    assert {k: v for k, v in again.stats.items() if k != "seconds"} == \
+        {k: v for k, v in first.stats.items() if k != "seconds"}
+    # Copper on another layer leaves the answer standing; copper on this one does not.
+    other = CopperItem("track", "C", ("B.Cu",), start=(0, 0), end=(5 * MM, 5 * MM),
+                       width=200_000, clearance=200_000)
+    router.update(board(*items, other))
+    assert router.route(req).path == first.path and len(router._shared.routes) == remembered
+    block = wall("D", 10, 0.6, 10, 4)  # closes the side the first path went round
+    changed = board(*items, other, block)
+    router.update(changed)
+    moved = router.route(req)
+    assert len(router._shared.routes) == remembered + 1
+    assert moved.path is not None and moved.path != first.path
+    assert_legal(changed, req, moved.path)
+    # A router made with `with_board` shares what was worked out.
+    fresh = router.with_board(board(*items))
+    assert fresh.route(req).path == first.path
+    assert len(router._shared.routes) == remembered + 1
+
+
+def test_paths_are_no_worse_than_before_on_d2_boards():
+    """Every D2 connection that the router of revision 5a7faa8 found is found, no longer and
+    with no more bends (the boards are routed net by net, as in test_walkaround)."""
+    import tests.env.d2_routes as d2
+
+    baseline = json.loads(BASELINE.read_text())
+    found: dict[str, list] = {}
+
+    class Recording(WalkaroundRouter):
+        def route(self, req):
+            result = super().route(req)
+            path = result.path
+            found[current].append(None if path is None else (
+                sum(octilinear_length(a, b) for a, b in zip(path, path[1:])), bends(path)))
+            return result
+
+    original = d2.WalkaroundRouter
+    d2.WalkaroundRouter = Recording
+    try:
+        for current, b in d2.d2_test_boards(len(baseline)):
+            found[current] = []
+            d2.route_board(current, b)
+    finally:
+        d2.WalkaroundRouter = original
+    assert list(found) == list(baseline)
+    for name, calls in baseline.items():
+        assert len(found[name]) == len(calls), name
+        for i, ((was_found, length, bend_count), now) in enumerate(zip(calls, found[name])):
+            if not was_found:
+                continue
+            assert now is not None, f"{name} call {i}: no path where there was one"
+            assert now[0] <= length + 1e-3 and now[1] <= bend_count, (name, i, now, length)
