@@ -80,7 +80,7 @@ def test_an_answer_is_remembered_until_its_layer_changes():
 def test_paths_are_no_worse_than_before_on_d2_boards():
     """Every D2 connection that the router of revision 5a7faa8 found is found, no longer and
     with no more bends (the boards are routed net by net, as in test_walkaround)."""
-    import tests.env.d2_routes as d2
+    import pcbdata.testing.d2_routes as d2
 
     baseline = json.loads(BASELINE.read_text())
     found: dict[str, list] = {}
