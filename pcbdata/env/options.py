@@ -30,7 +30,7 @@ class EnvOptions:
     split: str = "test"
     rows: object = None  # dataset rows (e.g. `load_dataset(...)`): boards written to files
     count: int | None = None  # boards of the split to draw from (default: all)
-    max_steps: int = 200
+    max_steps: int | None = None  # None: max(200, 8 * connections left at reset), per board
     reward: str = "step"  # "step" or "terminal"
     counting: str = "strict"  # "strict" or "evaluation" (SPEC section 4)
     weights: Weights = Weights()
@@ -81,7 +81,7 @@ def make_options(**given) -> EnvOptions:
     negative = [name for name in CAPACITIES["d2"] if getattr(options, name) < 0]
     if negative:
         raise EnvValueError(f"{negative[0]} must be >= 1 (0: the family's default)")
-    if options.max_steps < 1 or options.max_candidates < 9:
+    if (options.max_steps is not None and options.max_steps < 1) or options.max_candidates < 9:
         raise EnvValueError("max_steps must be >= 1 and max_candidates >= 9 (8 ring slots + 1)")
     _check_router_budget(options)
     return options
