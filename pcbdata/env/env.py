@@ -270,7 +270,9 @@ class RoutingEnv(gym.Env):
         if a.type == NET_SELECT:
             self._net, self._head = self.static.nets[a.net].name, None
         elif a.type == NET_END:
+            changed = self._prune([self._net])
             self._net, self._head = None, None
+            return None, changed
         elif a.type == START_ROUTE:
             c = self._cands[a.candidate]
             self._head = Head(c.x, c.y, c.layer)
@@ -302,6 +304,7 @@ class RoutingEnv(gym.Env):
                 report.update(ok=False, reason=f"push_n_shove: undone, KiCad's connectivity "
                                                f"shows net {lost[0]!r} lost a connection")
                 return report, True
+            self._prune([n for n in done.moved if n != self._net])  # the pieces of moved tracks the reroutes left behind
         self._head = done.head
         return report, bool(done.edits)
 
@@ -325,7 +328,26 @@ class RoutingEnv(gym.Env):
 
     def _apply(self, edits: list[dict]) -> None:
         drc = self.options.drc == "step"
-        self._snap = self._timed(self._session.apply, edits, drc)
+        self._took(self._timed(self._session.apply, edits, drc), edits, drc)
+
+    def _prune(self, nets) -> bool:
+        """With the `cleanup` option: KiCad deletes the nets' dangling tracks and vias
+        (`routing_session.prune`), put back if a net came apart. True if copper changed."""
+        if not self.options.cleanup or not nets:
+            return False
+        drc = self.options.drc == "step"
+        before = self._snap["clusters"]
+        pruned = self._timed(self._session.prune, list(nets), drc)
+        if not pruned["edits"]:
+            return False
+        self._took(pruned["snapshot"], pruned["edits"], drc)
+        if routing.lost_connections(before, self._snap["clusters"], nets):
+            self._apply(routing.undo(pruned["edits"]))
+        return True
+
+    def _took(self, snap: dict, edits: list[dict], drc: bool) -> None:
+        """The worker's snapshot after it accepted `edits`."""
+        self._snap = snap
         self._applied += edits
         self._drc_fresh = drc
         if drc:

@@ -48,6 +48,7 @@ class EnvOptions:
     router_checks: int = BUDGET_CHECKS  # ... and link checks (machine-independent counts)
     router_seconds: float | None = None  # a wall-clock limit too; runs then are not reproducible
     finish_tries: int = 3
+    cleanup: bool = True  # net_end and push_n_shove delete their nets' dangling tracks and vias
     task_timeout: float = 120.0
     engine_env: dict | None = None  # environment of the KiCad worker (e.g. LD_PRELOAD)
     fast_drc: bool = True  # False: the worker runs without pcbdata.kicad.fastwait's preload

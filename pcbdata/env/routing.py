@@ -103,6 +103,9 @@ def undo(edits: list[dict]) -> list[dict]:
                     for a, b in reversed(list(zip(points, points[1:]))) if tuple(a) != tuple(b)]
         elif edit["kind"] == "via":
             out.append({"kind": "remove_via", "net": edit["net"], "at": edit["at"]})
+        elif edit["kind"] == "remove_via":  # a pruned via (`routing_session.prune`)
+            out.append({"kind": "via", "net": edit["net"], "at": edit["at"],
+                        "diameter": edit["diameter"], "drill": edit["drill"]})
         else:
             out.append({"kind": "track", "net": edit["net"], "layer": edit["layer"],
                         "points": [edit["start"], edit["end"]], "width": edit["width"]})

@@ -6,7 +6,7 @@ import pytest
 
 from pcbdata.env import routing
 from pcbdata.env.env import step_limit
-from pcbdata.env.types import MAKE_LINE
+from pcbdata.env.types import MAKE_LINE, MAKE_VIA, MARK_OBSTACLES, NET_END, NET_SELECT, START_ROUTE
 
 
 def _copper(env) -> list[tuple]:
@@ -70,3 +70,37 @@ def test_default_step_limit_scales_with_the_board(make_env):
     fixed = make_env("d2", max_steps=7)
     _, info = fixed.reset(options={"board_id": "board_00000"})
     assert info["max_steps"] == 7
+
+
+def _first(mask) -> int:
+    return int(next(i for i, m in enumerate(mask) if m))
+
+
+@pytest.mark.parametrize("cleanup", [True, False])
+def test_net_end_takes_up_a_route_that_went_nowhere(make_env, cleanup):
+    """A line to a ring point and a via there: both dangle; `net_end` deletes them (KiCad's
+    DRC then has no dangling item), unless cleanup=False."""
+    env = make_env("d2", cleanup=cleanup)
+    obs, info = env.reset(options={"board_id": "board_00000"})
+    net = _first(info["action_mask"]["net"])
+    env.step({"type": NET_SELECT, "net": net, "candidate": 0, "mode": 0})
+    env.step({"type": START_ROUTE, "net": 0, "candidate": _first(_masks(env)["candidate"]),
+              "mode": 0})
+    ring = _first(_masks(env)["candidate"][:8])
+    obs, _, _, _, info = env.step({"type": MAKE_VIA, "net": 0, "candidate": ring,
+                                   "mode": MARK_OBSTACLES})
+    assert info["router"]["ok"] and info["vias"] == 1
+    dangling = {"track_dangling", "via_dangling"} & set(_types(env))
+    assert "via_dangling" in dangling
+    obs, _, _, _, info = env.step({"type": NET_END, "net": 0, "candidate": 0, "mode": 0})
+    left = {"track_dangling", "via_dangling"} & set(_types(env))
+    assert (left, info["vias"], info["wl_mm"]) == ((set(), 0, 0.0) if cleanup else
+                                                   (dangling, 1, info["wl_mm"]))
+
+
+def _masks(env):
+    return env.unwrapped.action_masks()
+
+
+def _types(env) -> list[str]:
+    return [v["type"] for v in env.unwrapped._violations]
