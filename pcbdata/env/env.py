@@ -304,7 +304,8 @@ class RoutingEnv(gym.Env):
                 report.update(ok=False, reason=f"push_n_shove: undone, KiCad's connectivity "
                                                f"shows net {lost[0]!r} lost a connection")
                 return report, True
-            self._prune([n for n in done.moved if n != self._net])  # the pieces of moved tracks the reroutes left behind
+            # The pieces of moved tracks that the reroutes left behind.
+            self._prune([n for n in done.moved if n != self._net])
         self._head = done.head
         return report, bool(done.edits)
 
