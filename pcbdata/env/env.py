@@ -287,7 +287,8 @@ class RoutingEnv(gym.Env):
         if a.type == MAKE_LINE:
             done = routing.make_line(s, self._get_router, net, head, goal, a.mode, times)
         elif a.type == MAKE_VIA:
-            done = routing.make_via(s, self._get_router, net, head, goal, a.mode, times)
+            done = routing.make_via(s, self._get_router, net, head, goal, a.mode, times,
+                                    self._cands[a.candidate].layer)
         else:
             done = routing.finish(s, self._get_router, net, head, self._finish_targets(),
                                   a.mode, self.options.finish_tries, times)
