@@ -104,3 +104,24 @@ def _masks(env):
 
 def _types(env) -> list[str]:
     return [v["type"] for v in env.unwrapped._violations]
+
+
+def test_a_worker_killed_mid_episode_keeps_the_board(make_env, tmp_path):
+    """KiCad's worker dies: the next copper step reloads the board in a fresh worker with the
+    edits made so far, and the episode ends on that board, saved."""
+    import os
+    import signal
+
+    env = make_env("d2", drc="terminal")
+    obs, info = env.reset(options={"board_id": "board_00001"})
+    obs, info, _ = _route_until_copper(env, obs, info)
+    good = _copper(env)
+    os.kill(env.unwrapped._session._pool.call("os:getpid"), signal.SIGKILL)
+    line = _first(_masks(env)["candidate"])
+    _, _, terminated, truncated, info = env.step(
+        {"type": MAKE_LINE, "net": 0, "candidate": line, "mode": MARK_OBSTACLES})
+    assert truncated and not terminated and info["engine_failure"]
+    assert _copper(env) == good
+    saved = env.unwrapped.save(tmp_path / "kept.kicad_pcb")
+    assert open(saved, encoding="utf-8").read().count("(segment") == \
+        sum(1 for c in good if c[0] != "via")
