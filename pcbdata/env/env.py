@@ -335,7 +335,8 @@ class RoutingEnv(gym.Env):
     def _prune(self, nets) -> bool:
         """With the `cleanup` option: KiCad deletes the nets' dangling tracks and vias
         (`routing_session.prune`), put back if a net came apart. True if copper changed."""
-        if not self.options.cleanup or not nets:
+        nets = sorted({r["net"] for r in self._snap["copper"]} & set(nets))
+        if not self.options.cleanup or not nets:  # a net without copper has nothing to prune
             return False
         drc = self.options.drc == "step"
         before = self._snap["clusters"]
