@@ -29,7 +29,7 @@ AGENT = "pcbdata.agents.d1:D1Agent"
 
 
 def _write(root: Path, config: str, limit: int) -> None:
-    from tests.env.conftest import write_set
+    from pcbdata.testing.sets import write_set
 
     if not (root / config / "test").is_dir():
         write_set(root, config, "test", limit)

@@ -38,7 +38,8 @@ sys.path[:0] = [str(HERE), str(ROOT)]
 
 from _measure import machine  # noqa: E402
 from pcbdata.kicad import fastwait  # noqa: E402
-from tests.helpers import drc_parity, with_straight_tracks, write_board  # noqa: E402
+from pcbdata.testing.drc import drc_parity, with_straight_tracks
+from pcbdata.testing.sets import write_board# noqa: E402
 
 SNAPSHOT = ROOT.parent / "shared" / "pcbench" / "pcbench.tar.xz"
 

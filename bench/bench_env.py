@@ -24,7 +24,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 
 def _write_set(root: Path, limit: int) -> None:
-    from tests.env.conftest import write_set
+    from pcbdata.testing.sets import write_set
 
     write_set(root, "d2", "test", limit)
 

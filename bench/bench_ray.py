@@ -74,7 +74,7 @@ def build(out: Path, executor, workers: int, boards: int) -> dict:
 def make_rollouts(root: Path, runs: Path, boards: int) -> int:
     from pcbdata.spec.configs import get_config
     from pcbdata.model.kicad_writer import board_files
-    from tests.helpers import with_straight_tracks
+    from pcbdata.testing.drc import with_straight_tracks
 
     spec = get_config("d2")
     generator, count = spec.generator(), 0

@@ -74,7 +74,7 @@ def _router_only(config: str, limit: int) -> dict:
     from pcbdata.router.walkaround import RouteRequest, WalkaroundRouter
     from pcbdata.generators import D2Generator
     from pcbdata.spec.presets import d2_level
-    from tests.env import d2_routes
+    from pcbdata.testing import d2_routes
 
     level = d2_level(config.removeprefix("d2-") if config != "d2" else "default")
     generator = D2Generator(level.params)
@@ -104,7 +104,7 @@ def _router_only(config: str, limit: int) -> dict:
 
 
 def _write_set(root: Path, config: str, limit: int) -> None:
-    from tests.env.conftest import write_set
+    from pcbdata.testing.sets import write_set
 
     write_set(root, config, "test", limit)
 

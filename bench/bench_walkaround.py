@@ -2,7 +2,7 @@
 
 Every connection of every net (pad i to pad i+1, through a via next to the pad when the pads
 share no layer) is asked of the router, in net order; found paths become tracks that later nets
-avoid (`tests/env/d2_routes.py`). Reported: per-call median, 90th percentile and maximum wall
+avoid (`pcbdata/testing/d2_routes.py`). Reported: per-call median, 90th percentile and maximum wall
 time, per method (direct, two-segment, search), connections left open, and the exact
 independent legality check of every routed board. Baseline in the same run: the direct and
 two-segment tries alone (what `mark_obstacles` would lay, kept only when clear).
@@ -31,7 +31,7 @@ def _figures(calls) -> dict:
 
 
 def _run(boards, **options) -> dict:
-    from tests.env.d2_routes import route_board, violations
+    from pcbdata.testing.d2_routes import route_board, violations
 
     calls, open_total, illegal = [], 0, 0
     for name, board in boards:
@@ -49,7 +49,7 @@ def _run(boards, **options) -> dict:
 def main() -> int:
     from _measure import machine, report
 
-    from tests.env.d2_routes import d2_test_boards
+    from pcbdata.testing.d2_routes import d2_test_boards
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--limit", type=int, default=128)

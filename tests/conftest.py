@@ -2,14 +2,27 @@
 temporary folder, so tests neither read nor write the user's files."""
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import subprocess
 import tempfile
 from pathlib import Path
 
 import pytest
 
-_CACHE_ROOT = Path(tempfile.mkdtemp(prefix="pcbdata-test-caches-"))
+# One folder per test session for the caches and every temporary file (TMPDIR): processes the
+# tests start (workers, CLI runs, processes they kill) inherit it, and the session removes it
+# at exit, so a run leaves nothing in the system's temporary folder.
+if os.environ.get("PCBDATA_TEST_CACHES"):
+    _CACHE_ROOT = Path(os.environ["PCBDATA_TEST_CACHES"])
+else:
+    _CACHE_ROOT = Path(tempfile.mkdtemp(prefix="pcbdata-test-caches-"))
+    os.environ["PCBDATA_TEST_CACHES"] = str(_CACHE_ROOT)
+    atexit.register(shutil.rmtree, _CACHE_ROOT, True)
+    (_CACHE_ROOT / "tmp").mkdir()
+    os.environ["TMPDIR"] = str(_CACHE_ROOT / "tmp")
+    tempfile.tempdir = None  # gettempdir() reads TMPDIR again
 for _var, _sub in (("HF_HOME", "hf"), ("HF_DATASETS_CACHE", "hf/datasets"),
                    ("KICAD_CONFIG_HOME", "kicad-config"), ("XDG_CONFIG_HOME", "xdg-config"),
                    ("XDG_CACHE_HOME", "xdg-cache")):

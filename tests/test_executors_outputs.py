@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from pcbdata.executors import RayExecutor
-from tests.helpers import with_straight_tracks
+from pcbdata.testing.drc import with_straight_tracks
 
 REPORT_FILES = ("per_rollout.csv", "per_board.csv", "summary.json", "summary.md")
 

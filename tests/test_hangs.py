@@ -13,6 +13,7 @@ import pytest
 from pcbdata.cli import main
 from pcbdata.core.sexpr_text import cut_problem
 from pcbdata.model.kicad_writer import board_text
+from pcbdata.testing.sets import seal_set
 from tests.evaluator.boards import (
     ROUTE_A,
     ROUTE_B,
@@ -22,7 +23,6 @@ from tests.evaluator.boards import (
     write_board,
     write_instance,
 )
-from tests.helpers import seal_set
 
 
 def cut_in_pad_layers(text: str) -> str:

@@ -28,6 +28,7 @@ LAYERS = (
     ("pcbdata.env.wrappers", "pcbdata.env.llm.wrapper"),
     ("pcbdata.agents",),
     ("pcbdata.cli", "pcbdata", "pcbdata.__main__"),
+    ("pcbdata.testing",),
 )
 #: `from pcbdata import __version__` is metadata, not a layer.
 METADATA = {"pcbdata.__version__"}

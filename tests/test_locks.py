@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 
 from pcbdata.core.fsutil import folder_lock
-from tests.helpers import seal_set
+from pcbdata.testing.sets import seal_set
 from tests.processes import marked_env, new_marker, wait_for
 
 REPO = Path(__file__).resolve().parents[1]

@@ -15,12 +15,15 @@ from __future__ import annotations
 
 import os
 import queue
+import shutil
 import signal
 import site
 import subprocess
 import sys
+import tempfile
 import threading
 import time
+import weakref
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from multiprocessing import Pipe
@@ -262,8 +265,12 @@ class KicadPool:
         self.task_timeout = task_timeout
         self.tasks_per_worker = tasks_per_worker
         self.memory_limit_mb = memory_limit_from_env(memory_limit_mb)
+        # Workers' temporary files live in a folder of the pool's, removed when it closes: a
+        # worker killed at its time limit cannot clean up after itself.
+        self._tmp = tempfile.mkdtemp(prefix="pcbdata-pool-")
+        self._cleanup = weakref.finalize(self, shutil.rmtree, self._tmp, True)
         # KiCad's DRC sleeps 250 ms per call without it (fastwait.py); `env` may turn it off
-        env = {**fastwait.preload_env(), **(env or {})}
+        env = {"TMPDIR": self._tmp, **fastwait.preload_env(), **(env or {})}
         self._slots = [_Worker(env, self.memory_limit_mb)
                        for _ in range(self.workers)]
 
@@ -277,6 +284,7 @@ class KicadPool:
         for slot in self._slots:
             slot.closed = True
             slot.stop()
+        self._cleanup()
 
     def map(self, ref: str, arg_tuples: Iterable[tuple]) -> Iterator[Outcome]:
         todo: queue.Queue = queue.Queue()

@@ -18,7 +18,7 @@ from pcbdata.core.specctra_text import (
     via_diameters,
     widen_wires_for_vias,
 )
-from tests.helpers import seal_set
+from pcbdata.testing.sets import seal_set
 
 DSN = """(pcb x
   (resolution um 10)

@@ -10,7 +10,7 @@ import pytest
 
 from pcbdata.cli import main
 from pcbdata.kicad import kicad_tools_route as kicad_tools
-from tests.helpers import seal_set
+from pcbdata.testing.sets import seal_set
 
 sys.path.insert(0, str(Path(__file__).parents[1] / "evaluator"))
 from boards import base_board, pad, write_instance  # noqa: E402

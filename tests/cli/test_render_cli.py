@@ -12,7 +12,7 @@ from PIL import Image
 
 from pcbdata.cli import main
 from pcbdata.core import drawing
-from tests.env.conftest import write_set
+from pcbdata.testing.sets import write_set
 
 TITLE = 14  # pixels of the title bar above each panel (drawn in the ratsnest colour)
 

@@ -7,24 +7,10 @@ from pathlib import Path
 
 import pytest
 
+from pcbdata.testing.sets import write_set
+
 D2_BOARDS = 4
 D1_BOARDS = 2
-
-
-def write_set(root: Path, config: str, split: str, count: int) -> Path:
-    from pcbdata.model.kicad_writer import board_files
-    from pcbdata.spec.configs import get_config
-    from tests.helpers import seal_set
-
-    spec = get_config(config)
-    generator = spec.generator()
-    for index in range(count):
-        instance = generator.generate(spec.seed, split, index)
-        folder = root / config / split / instance.board_id
-        folder.mkdir(parents=True, exist_ok=True)
-        for name, text in board_files(instance.board).items():
-            (folder / name).write_text(text, encoding="utf-8")
-    return seal_set(root)
 
 
 @pytest.fixture(scope="session")

@@ -19,7 +19,7 @@ from pcbdata.env.env import RoutingEnv
 from pcbdata.env.types import ACTION_TYPES, MAKE_LINE, MAKE_VIA, MODES, NET_SELECT
 from pcbdata.env.wrappers import features
 from pcbdata.env.wrappers.rl import RLWrapper, env_action, make_rl_env, sample_action
-from tests.env.conftest import write_set
+from pcbdata.testing.sets import write_set
 
 
 @pytest.fixture

@@ -21,7 +21,7 @@ D1_BOARDS = 3
 
 @pytest.fixture(scope="module")
 def d1_set(tmp_path_factory) -> Path:
-    from tests.env.conftest import write_set
+    from pcbdata.testing.sets import write_set
 
     root = tmp_path_factory.mktemp("d1-quality")
     for grid in D1_GRIDS:

@@ -8,7 +8,7 @@ import pytest
 
 from pcbdata.env import routing
 from pcbdata.env.types import FINISH, PUSH_N_SHOVE
-from tests.env.conftest import write_set
+from pcbdata.testing.sets import write_set
 from tests.router.test_shove import B_DIP
 from tests.router.test_walkaround import WIDTH
 

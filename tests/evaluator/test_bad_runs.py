@@ -11,7 +11,7 @@ from boards import ROUTE_A, ROUTE_B, base_board, routed, write_board, write_inst
 from pcbdata.cli import main
 from pcbdata.core.errors import UserError
 from pcbdata.evaluator.runs import evaluate_set
-from tests.helpers import seal_set
+from pcbdata.testing.sets import seal_set
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ import pytest
 from boards import ROUTE_A, ROUTE_B, base_board, routed, track, write_board, write_instance
 
 from pcbdata.evaluator.runs import board_row, markdown_table, summarize
-from tests.helpers import seal_set
+from pcbdata.testing.sets import seal_set
 
 STUB = track(30, 10, 30, 20, "A")  # a dangling track: a warning unless the project says error
 

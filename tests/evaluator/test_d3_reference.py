@@ -27,23 +27,28 @@ def d3a_names() -> list[str]:
     return [row[0][ID_PREFIX:] for row in rows if row[5] == "A"]
 
 
-@pytest.fixture(scope="module")
-def d3a_set(tmp_path_factory, kicad_pool):
+def build_boards(tmp_path_factory, kicad_pool, label: str, names: list[str]):
+    """`names` of the PCBench snapshot built alone (the packaged recipe): (set, summary)."""
     if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"the D3-A reference check needs the PCBench snapshot at {SHARED_PCBENCH} "
-                    f"(absent on this machine)")
+        pytest.skip(f"the {label} reference check needs the PCBench snapshot at "
+                    f"{SHARED_PCBENCH} (absent on this machine)")
     from pcbdata.curation.build import build
     from pcbdata.spec.recipe import load_recipe
 
-    root = tmp_path_factory.mktemp("d3a")
+    root = tmp_path_factory.mktemp(label.lower())
     source = root / "pcbench"
     source.mkdir()
-    names = d3a_names()
     subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(source), "LICENSE",
                     "github_meta", *(f"PCBs/{name}" for name in names)], check=True)
     summary = build(source, root / "set", load_recipe(), pool=kicad_pool, log=lambda line: None)
+    return root / "set", summary
+
+
+@pytest.fixture(scope="module")
+def d3a_set(tmp_path_factory, kicad_pool):
+    root, summary = build_boards(tmp_path_factory, kicad_pool, "D3-A", d3a_names())
     assert summary["tiers"]["d3-a"] == {"full": 100, "test": 99}
-    return root / "set"
+    return root
 
 
 @pytest.mark.slow
@@ -75,21 +80,9 @@ def d3b_test_boards() -> dict[str, dict]:
 def d3b_test_set(tmp_path_factory, kicad_pool):
     """The 10 D3-B test boards built alone: they fill tier A of this small build, with the
     same instance and reference files as the released D3-B test split."""
-    if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"the D3-B reference check needs the PCBench snapshot at {SHARED_PCBENCH} "
-                    f"(absent on this machine)")
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
-
-    root = tmp_path_factory.mktemp("d3b")
-    source = root / "pcbench"
-    source.mkdir()
-    names = sorted(d3b_test_boards())
-    subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(source), "LICENSE",
-                    "github_meta", *(f"PCBs/{name}" for name in names)], check=True)
-    summary = build(source, root / "set", load_recipe(), pool=kicad_pool, log=lambda line: None)
+    root, summary = build_boards(tmp_path_factory, kicad_pool, "D3-B", sorted(d3b_test_boards()))
     assert summary["tiers"]["d3-a"] == {"full": 10, "test": 10}
-    return root / "set"
+    return root
 
 
 @pytest.mark.slow

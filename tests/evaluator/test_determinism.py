@@ -14,7 +14,7 @@ from pcbdata.evaluator.core import MEASURE
 from pcbdata.evaluator.metrics import board_state, drc_penalty
 from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.kicad.scoring import violation_order, violation_records
-from tests.helpers import seal_set
+from pcbdata.testing.sets import seal_set
 
 RUNS = 3
 

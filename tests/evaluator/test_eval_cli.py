@@ -9,7 +9,7 @@ import pytest
 from boards import ROUTE_A, ROUTE_B, base_board, pad, routed, track, write_board, write_instance
 
 from pcbdata.cli import main
-from tests.helpers import seal_set
+from pcbdata.testing.sets import seal_set
 
 
 @pytest.fixture(scope="module")

@@ -17,8 +17,8 @@ import pytest
 
 from pcbdata.baselines.routing import rollout_plans
 from pcbdata.baselines.specctra import freeroute_available
+from pcbdata.testing.sets import write_set
 from tests.conftest import SHARED_PCBENCH
-from tests.env.conftest import write_set
 
 D3_BOARD = "NavigationThing_NavigationThingBacklight"  # D3-A; 23 tracks, one past the edge
 SEGMENT = re.compile(r'\(segment\s+\(start ([-\d.]+) ([-\d.]+)\)\s+\(end ([-\d.]+) ([-\d.]+)\)'

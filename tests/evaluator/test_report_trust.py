@@ -14,7 +14,7 @@ from pcbdata.cli import main
 from pcbdata.core.errors import UserError
 from pcbdata.evaluator.runs import CACHE_NAME, evaluate_set
 from pcbdata.spec.configs import get_config
-from tests.helpers import seal_set
+from pcbdata.testing.sets import seal_set
 
 BOARDS = ("b0", "b1", "b2", "b3")
 

@@ -11,7 +11,8 @@ from pcbdata.kicad import DrcReport
 from pcbdata.model.board import Via, mm_to_nm
 from pcbdata.model.connector import connector_arrays, npz_bytes
 from pcbdata.model.kicad_writer import board_files
-from tests.helpers import outline_in_file, pads_in_file, write_board
+from pcbdata.testing.sets import write_board
+from tests.helpers import outline_in_file, pads_in_file
 
 GRIDS = (10, 50, 100, 200, 500)
 

@@ -10,7 +10,8 @@ from pcbdata.generators import D2Generator, D2Params
 from pcbdata.kicad import DrcReport
 from pcbdata.model.board import mm_to_nm
 from pcbdata.spec.presets import d2_level, d2_levels, parse_override
-from tests.helpers import pads_in_file, write_board
+from pcbdata.testing.sets import write_board
+from tests.helpers import pads_in_file
 
 N_TRAIN = 10_000
 

@@ -13,7 +13,7 @@ from pcbdata.evaluator import score
 from pcbdata.generators import D1Generator, D1Params, D2Generator, D2Params
 from pcbdata.model.board import mm_to_nm
 from pcbdata.model.kicad_writer import mm
-from tests.helpers import write_board
+from pcbdata.testing.sets import write_board
 
 # Two nets of two through-hole pads: test board 37 has NET1 running nearly level across the
 # board and NET2 crossing it, so NET2 can come down on F.Cu, drop through a via beside NET1's

@@ -1,7 +1,7 @@
 """In-process DRC through the engine: real KiCad, each board with its own project rules."""
 from pcbdata.kicad import DrcReport, parse_drc_report
 from pcbdata.model.board import Board, Pad, Rules, mm_to_nm
-from tests.helpers import write_board
+from pcbdata.testing.sets import write_board
 
 
 def _two_pads(clearance_mm: float) -> Board:

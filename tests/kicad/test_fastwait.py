@@ -15,8 +15,9 @@ import time
 import pytest
 
 from pcbdata.kicad import fastwait
+from pcbdata.testing.drc import drc_parity, with_straight_tracks
+from pcbdata.testing.sets import write_board
 from tests.conftest import SHARED_PCBENCH
-from tests.helpers import drc_parity, with_straight_tracks, write_board
 
 D2_SAMPLE = range(0, 128, 4)  # 32 of the 128 D2 test boards
 D3_SAMPLE = 6  # the smallest real boards of the snapshot with at least MIN_TRACKS tracks

@@ -1,6 +1,6 @@
 """The walkaround router (`pcbdata.router.walkaround`): octilinear paths that keep the rules'
 clearance, checked against an independent exact model of the copper (shapely distances), plus
-D2 boards routed net by net (`tests/env/d2_routes.py`)."""
+D2 boards routed net by net (`pcbdata/testing/d2_routes.py`)."""
 from __future__ import annotations
 
 import math
@@ -318,7 +318,7 @@ def test_d2_boards_route_legally_and_quickly():
     """Eight D2 test boards, every connection asked of the router (later nets avoid earlier
     paths): no clearance or edge violation in an exact independent check, no call over 1 s, and
     nearly every connection found."""
-    from tests.env.d2_routes import d2_test_boards, route_board, violations
+    from pcbdata.testing.d2_routes import d2_test_boards, route_board, violations
 
     calls, open_total, connections = [], 0, 0
     for name, b in d2_test_boards(8):

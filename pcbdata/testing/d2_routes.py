@@ -121,7 +121,7 @@ def _route(name, board, router, calls, net, layer, start, goal):
     return result.path
 
 
-def _commit(board: Board, router: WalkaroundRouter, net: str, layer: str, path) -> None:
+def _commit(board: Board, router: WalkaroundRouter, net: str, layer, path) -> None:
     for (x1, y1), (x2, y2) in zip(path, path[1:]):
         board.tracks.append(
             Track(x1=x1, y1=y1, x2=x2, y2=y2, width=board.rules.track_width, net=net, layer=layer)
