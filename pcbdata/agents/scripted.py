@@ -6,7 +6,9 @@ and `info["action_mask"]`.
 the shortest open ratsnest edge, on a layer both pads share if any, and calls `finish` in
 `walkaround` mode until the net is joined; when the head's layer has no reachable pad it drops
 a via at the head (never on a drilled pad: it restarts on the pad's other layer instead) and
-goes on from the other layer; it releases the net when done or out of ideas. With
+goes on from the other layer; it releases the net when done or out of ideas (the
+environment's `net_end` then takes up the vias and stubs of routes that went nowhere, with its
+default `cleanup`). With
 `shove=True` (`ShovingScriptedAgent`, `--agent scripted-shove`) a `finish` that walkaround cannot
 route is tried once more in `push_n_shove` mode before the via.
 """

@@ -56,7 +56,9 @@ def register(parser) -> None:
                         help="parallel environments, each with its KiCad worker (default: cores; "
                              "--executor ray uses every CPU of the cluster)")
     parser.add_argument("--limit", type=int, help="only the first N boards")
-    parser.add_argument("--max-steps", type=int, default=200, help="step limit (default: 200)")
+    parser.add_argument("--max-steps", type=int,
+                        help="step limit (default: per board, max(200, 8 x the connections "
+                             "left at reset))")
     parser.add_argument("--drc", choices=("step", "terminal"), default="step",
                         help="KiCad DRC after every copper change (default) or at the end only")
     parser.add_argument("--rollout-timeout", type=float, default=None, metavar="SECONDS",

@@ -4,6 +4,9 @@
   (x right, y down): E, SE, S, SW, W, NW, N, NE; radius `ring_mm`, diagonals with equal |dx|
   and |dy| so that every ring segment is octilinear. D1: only E, S, W, N, one lattice pitch
   away and snapped to the lattice. Empty (kind `empty`) without a head;
+- on boards with more than two copper layers, the head's point on every other layer (kind
+  `ring`, in layer order): a `make_via` there puts a via at the head that takes it to that
+  layer;
 - then the current net's pads (pad order; a through-hole pad once per copper layer), its vias
   (once per layer) and its track ends, sorted by position;
 deduplicated by (x, y, layer), the first kept, at most `max_candidates`.
@@ -39,6 +42,15 @@ def ring(static: StaticBoard, head: Head | None, ring_nm: int) -> list[Candidate
     return out
 
 
+def layer_points(static: StaticBoard, head: Head | None) -> list[Candidate]:
+    """The head's point on the other copper layers (boards with inner layers only: two-layer
+    boards keep their candidate slots)."""
+    if head is None or len(static.layers) <= 2:
+        return []
+    return [Candidate(head.x, head.y, layer, RING) for layer in range(len(static.layers))
+            if layer != head.layer]
+
+
 def net_points(static: StaticBoard, net: str, copper: list[dict]) -> list[Candidate]:
     """The net's pads, vias and track ends as candidates (before deduplication)."""
     points = [Candidate(p.x, p.y, layer, PAD) for p in static.pads if p.net == net
@@ -59,7 +71,7 @@ def candidates(static: StaticBoard, net: str | None, head: Head | None, copper: 
         return [_EMPTY] * limit
     out = ring(static, head, ring_nm)
     seen = {(c.x, c.y, c.layer) for c in out if c.kind != EMPTY}
-    for point in net_points(static, net, copper):
+    for point in layer_points(static, head) + net_points(static, net, copper):
         key = (point.x, point.y, point.layer)
         if key not in seen and len(out) < limit:
             seen.add(key)

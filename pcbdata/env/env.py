@@ -38,6 +38,17 @@ from pcbdata.env.types import (
 )
 from pcbdata.env.viewer import RENDER_MODES, RENDER_SIZE, state_records
 
+#: The default step limit's floor and its steps per connection left at reset (a connection
+#: takes the scripted agent about five steps: net_select, start_route, finish, a via, net_end).
+DEFAULT_MAX_STEPS = 200
+STEPS_PER_CONNECTION = 8
+
+
+def step_limit(connections: int) -> int:
+    """The default step limit for a board with `connections` left to make."""
+    return min(observation.MAX_STEP_COUNT,
+               max(DEFAULT_MAX_STEPS, STEPS_PER_CONNECTION * int(connections)))
+
 
 class RoutingEnv(gym.Env):
     @property
@@ -82,8 +93,9 @@ class RoutingEnv(gym.Env):
             self._session = KicadSession(self.options.task_timeout, self.options.engine_env,
                                          self.options.fast_drc)
         folder = self.source.folder(index, self._session.work)
+        self._files = instance_files(folder)
         try:
-            opened = self._timed(self._session.open, *instance_files(folder))
+            opened = self._timed(self._session.open, *self._files)
         except EngineFailure as exc:
             raise BoardLoadError(f"{self.source.board_ids[index]}: {exc}") from None
         self.static = static_board(self.source.board_ids[index], opened["static"], self.config)
@@ -92,6 +104,12 @@ class RoutingEnv(gym.Env):
         info = self._info(rejected=None, router=None)
         info.update(net_names=[n.name for n in self.static.nets], layers=list(self.static.layers))
         return self._observation(), info
+
+    @property
+    def max_steps(self) -> int:
+        """The step limit of the current episode: the `max_steps` option, or by default
+        max(200, STEPS_PER_CONNECTION * the connections left to make at reset)."""
+        return getattr(self, "_max_steps", self.options.max_steps or DEFAULT_MAX_STEPS)
 
     def _pick(self, options: dict) -> int:
         unknown = set(options) - {"board_id", "index"}
@@ -127,7 +145,9 @@ class RoutingEnv(gym.Env):
         self._net, self._head, self._step_no = None, None, 0
         self._ended, self._terminated, self._truncated = False, False, False
         self._router, self._router_stale = None, False
+        self._applied: list[dict] = []  # every edit KiCad accepted: a damaged worker is rebuilt
         self._state = self._measure()
+        self._max_steps = self.options.max_steps or step_limit(self._state["unconnected"])
         self._telescope = Telescope(self._state["phi"], self.options.reward == "step")
         self._static_obs = observation.static_part(self.static,
                                                    self.observation_space["board_static"])
@@ -221,7 +241,7 @@ class RoutingEnv(gym.Env):
             try:
                 router, changed = self._do(parsed)
             except EngineFailure as exc:
-                return self._engine_failed(str(exc))
+                return self._step_failed(str(exc))
         return self._finish_step(rejected, router, changed)
 
     def _after_end(self):
@@ -250,7 +270,9 @@ class RoutingEnv(gym.Env):
         if a.type == NET_SELECT:
             self._net, self._head = self.static.nets[a.net].name, None
         elif a.type == NET_END:
+            changed = self._prune([self._net])
             self._net, self._head = None, None
+            return None, changed
         elif a.type == START_ROUTE:
             c = self._cands[a.candidate]
             self._head = Head(c.x, c.y, c.layer)
@@ -265,7 +287,8 @@ class RoutingEnv(gym.Env):
         if a.type == MAKE_LINE:
             done = routing.make_line(s, self._get_router, net, head, goal, a.mode, times)
         elif a.type == MAKE_VIA:
-            done = routing.make_via(s, self._get_router, net, head, goal, a.mode, times)
+            done = routing.make_via(s, self._get_router, net, head, goal, a.mode, times,
+                                    self._cands[a.candidate].layer)
         else:
             done = routing.finish(s, self._get_router, net, head, self._finish_targets(),
                                   a.mode, self.options.finish_tries, times)
@@ -282,6 +305,8 @@ class RoutingEnv(gym.Env):
                 report.update(ok=False, reason=f"push_n_shove: undone, KiCad's connectivity "
                                                f"shows net {lost[0]!r} lost a connection")
                 return report, True
+            # The pieces of moved tracks that the reroutes left behind.
+            self._prune([n for n in done.moved if n != self._net])
         self._head = done.head
         return report, bool(done.edits)
 
@@ -305,7 +330,28 @@ class RoutingEnv(gym.Env):
 
     def _apply(self, edits: list[dict]) -> None:
         drc = self.options.drc == "step"
-        self._snap = self._timed(self._session.apply, edits, drc)
+        self._took(self._timed(self._session.apply, edits, drc), edits, drc)
+
+    def _prune(self, nets) -> bool:
+        """With the `cleanup` option: KiCad deletes the nets' dangling tracks and vias
+        (`routing_session.prune`), put back if a net came apart. True if copper changed."""
+        nets = sorted({r["net"] for r in self._snap["copper"]} & set(nets))
+        if not self.options.cleanup or not nets:  # a net without copper has nothing to prune
+            return False
+        drc = self.options.drc == "step"
+        before = self._snap["clusters"]
+        pruned = self._timed(self._session.prune, list(nets), drc)
+        if not pruned["edits"]:
+            return False
+        self._took(pruned["snapshot"], pruned["edits"], drc)
+        if routing.lost_connections(before, self._snap["clusters"], nets):
+            self._apply(routing.undo(pruned["edits"]))
+        return True
+
+    def _took(self, snap: dict, edits: list[dict], drc: bool) -> None:
+        """The worker's snapshot after it accepted `edits`."""
+        self._snap = snap
+        self._applied += edits
         self._drc_fresh = drc
         if drc:
             self._violations = canonical(self._snap["violations"])
@@ -319,7 +365,7 @@ class RoutingEnv(gym.Env):
             try:  # drc="terminal": the final DRC, so the last reward carries the penalty
                 self._final_drc()
             except EngineFailure as exc:
-                return self._engine_failed(str(exc))
+                return self._step_failed(str(exc))
             terminated, truncated = self._end_flags()
         return self._transition(terminated, truncated, rejected, router)
 
@@ -346,18 +392,34 @@ class RoutingEnv(gym.Env):
             try:
                 self._final_drc()
             except EngineFailure as exc:
-                return self._engine_failed(str(exc))
+                return self._step_failed(str(exc))
         terminated = self._state["unconnected"] == 0
         return self._transition(terminated, not terminated, None, None, finished_early=True)
 
     def _end_flags(self) -> tuple[bool, bool]:
         terminated = self._state["unconnected"] == 0
-        return terminated, not terminated and self._step_no >= self.options.max_steps
+        return terminated, not terminated and self._step_no >= self.max_steps
 
     def _final_drc(self) -> None:
         self._snap = self._timed(self._session.snapshot, True)
         self._violations, self._drc_fresh = canonical(self._snap["violations"]), True
         self._state = self._measure()
+
+    def _step_failed(self, reason: str):
+        """A failure inside a step (KiCad refused an edit, crashed or timed out): the worker's
+        board may be half-edited, so it is loaded again and given every edit it had accepted;
+        the episode ends truncated on that last good board (saved and scored as usual), with
+        the reason in `info["engine_failure"]`. If even that fails, `_engine_failed`."""
+        try:
+            self._timed(self._session.open, *self._files)
+            self._snap = self._timed(self._session.apply, self._applied, True)
+        except EngineFailure as exc:
+            return self._engine_failed(f"{reason}; restoring the board failed too: {exc}")
+        self._violations, self._drc_fresh = canonical(self._snap["violations"]), True
+        self._router_stale = True
+        self._state = self._measure()
+        terminated = self._state["unconnected"] == 0
+        return self._transition(terminated, not terminated, None, None, engine_failure=reason)
 
     def _engine_failed(self, reason: str):
         """A KiCad crash or time-out: the episode ends as truncated; reset() starts a fresh
@@ -378,7 +440,7 @@ class RoutingEnv(gym.Env):
                 "router_head": observation.head_part(self.static, phase, self._net, self._head,
                                                      self._cands, space["router_head"]),
                 "drc": observation.drc_part(self.static, self._counted(), space["drc"]),
-                "step": np.asarray(min(self._step_no, self.options.max_steps), dtype=np.int64)}
+                "step": np.asarray(min(self._step_no, self.max_steps), dtype=np.int64)}
 
     def _info(self, rejected, router) -> dict:
         state = self._state
@@ -388,6 +450,7 @@ class RoutingEnv(gym.Env):
                 "drv": state["drv"], "phi": state["phi"], "wl_mm": state["wl"],
                 "vias": state["via"], "counting": self.options.counting,
                 "drc_fresh": self._drc_fresh, "engine": dict(ENGINE),
+                "max_steps": self.max_steps,
                 "action_mask": self.action_masks(), "masked_modes": dict(self._mode_reasons),
                 "observation_cut": getattr(self, "_cut", False)}
 

@@ -3,7 +3,9 @@
 Phases: no net -> `net_select`; a net, no head -> `start_route`, `net_select`, `net_end`;
 routing -> `make_line`, `make_via`, `finish`, `net_end`. `idle` is always allowed. Masks:
 `type` (7), `net` (nets with at least two pads), `candidate` (for `start_route` in phase
-`net`, for `make_line` in phase `routing`), `candidate_via` (for `make_via`), `mode`.
+`net`, for `make_line` in phase `routing`), `candidate_via` (for `make_via`: a candidate on
+the head's layer gives a via to the other outer layer; on boards with inner layers, a candidate
+on another layer gives a via to that layer), `mode`.
 """
 from __future__ import annotations
 
@@ -85,10 +87,13 @@ def candidate_masks(static: StaticBoard, cands: list[Candidate], head: Head | No
         if head is None:
             line[i] = c.kind in (PAD, VIA, TRACK_END)
             continue
-        if c.layer != head.layer or (c.kind == RING and not _inside(static, c.x, c.y, margin)):
+        if c.kind == RING and not _inside(static, c.x, c.y, margin):
             continue
-        line[i] = (c.x, c.y) != (head.x, head.y)
-        via[i] = not one_layer
+        if c.layer == head.layer:
+            line[i] = (c.x, c.y) != (head.x, head.y)
+            via[i] = not one_layer
+        else:  # a via to the layer the candidate names (boards with inner layers)
+            via[i] = len(static.layers) > 2
     return line, via
 
 

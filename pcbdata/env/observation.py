@@ -14,6 +14,8 @@ from pcbdata.core.ratsnest import open_pairs
 from pcbdata.env.types import PHASES, Candidate, Head, StaticBoard
 
 MAX_LAYERS = 32
+#: The bound of `step` when the step limit is per board (the `max_steps` option unset).
+MAX_STEP_COUNT = 10**6
 PAD_SHAPES = ("other", "Circle", "Rect", "Oval", "Trapezoid", "Roundrect", "Chamferedrect",
               "Custom")
 DRC_TYPES = ("other", "unconnected_items", "clearance", "shorting_items", "tracks_crossing",
@@ -68,7 +70,7 @@ def observation_space(o) -> spaces.Dict:
             "candidates": _rows(o.max_candidates, "candidates")}),
         "drc": spaces.Dict({"violations": _rows(o.max_violations, "violations"),
                             "count": _count(o.max_violations), "total": _count(10**7)}),
-        "step": _count(o.max_steps),
+        "step": _count(o.max_steps or MAX_STEP_COUNT),
     })
 
 

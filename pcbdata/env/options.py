@@ -30,7 +30,7 @@ class EnvOptions:
     split: str = "test"
     rows: object = None  # dataset rows (e.g. `load_dataset(...)`): boards written to files
     count: int | None = None  # boards of the split to draw from (default: all)
-    max_steps: int = 200
+    max_steps: int | None = None  # None: max(200, 8 * connections left at reset), per board
     reward: str = "step"  # "step" or "terminal"
     counting: str = "strict"  # "strict" or "evaluation" (SPEC section 4)
     weights: Weights = Weights()
@@ -48,6 +48,7 @@ class EnvOptions:
     router_checks: int = BUDGET_CHECKS  # ... and link checks (machine-independent counts)
     router_seconds: float | None = None  # a wall-clock limit too; runs then are not reproducible
     finish_tries: int = 3
+    cleanup: bool = True  # net_end and push_n_shove delete their nets' dangling tracks and vias
     task_timeout: float = 120.0
     engine_env: dict | None = None  # environment of the KiCad worker (e.g. LD_PRELOAD)
     fast_drc: bool = True  # False: the worker runs without pcbdata.kicad.fastwait's preload
@@ -81,7 +82,7 @@ def make_options(**given) -> EnvOptions:
     negative = [name for name in CAPACITIES["d2"] if getattr(options, name) < 0]
     if negative:
         raise EnvValueError(f"{negative[0]} must be >= 1 (0: the family's default)")
-    if options.max_steps < 1 or options.max_candidates < 9:
+    if (options.max_steps is not None and options.max_steps < 1) or options.max_candidates < 9:
         raise EnvValueError("max_steps must be >= 1 and max_candidates >= 9 (8 ring slots + 1)")
     _check_router_budget(options)
     return options

@@ -11,8 +11,11 @@ The version changes when the environment's dynamics, observation or reward chang
 wrapper's spaces). Versions: 0, the first; 1, `push_n_shove` moves other nets' tracks (it was
 masked) and the walkaround search stops on counted work (expansions, link checks) instead of
 a 2 s clock; 2, the router keeps the rules' clearance exactly, `finish_episode()` ends an
-episode early with the final DRC's correction as its last reward, and a set's own configs
-are environments. Gymnasium answers a request for an older version by naming the current one.
+episode early with the final DRC's correction as its last reward, a set's own configs
+are environments, and (in the same release, so no new version) the default step limit scales
+with the board (max(200, 8 x connections left at reset)), a failed step keeps the last good
+board, `net_end` and push_n_shove delete dangling copper (`cleanup`), and vias reach inner
+layers. Gymnasium answers a request for an older version by naming the current one.
 """
 from __future__ import annotations
 

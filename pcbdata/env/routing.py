@@ -42,8 +42,11 @@ def octilinear_line(start, goal) -> tuple:
     return mark_obstacles_path((int(start[0]), int(start[1])), (int(goal[0]), int(goal[1])))
 
 
-def via_layer(static: StaticBoard, layer: int) -> int:
-    """The layer a via takes the head to: the other outer copper layer."""
+def via_layer(static: StaticBoard, layer: int, target: int | None = None) -> int:
+    """The layer a via takes the head to: `target` (a layer the candidate names), else the
+    other outer copper layer."""
+    if target is not None and target != layer:
+        return target
     return len(static.layers) - 1 if layer == 0 else 0
 
 
@@ -103,6 +106,9 @@ def undo(edits: list[dict]) -> list[dict]:
                     for a, b in reversed(list(zip(points, points[1:]))) if tuple(a) != tuple(b)]
         elif edit["kind"] == "via":
             out.append({"kind": "remove_via", "net": edit["net"], "at": edit["at"]})
+        elif edit["kind"] == "remove_via":  # a pruned via (`routing_session.prune`)
+            out.append({"kind": "via", "net": edit["net"], "at": edit["at"],
+                        "diameter": edit["diameter"], "drill": edit["drill"]})
         else:
             out.append({"kind": "track", "net": edit["net"], "layer": edit["layer"],
                         "points": [edit["start"], edit["end"]], "width": edit["width"]})
@@ -138,7 +144,9 @@ def make_line(static, router, net: NetRules, head: Head, goal, mode: int, times,
                    stats=found.stats, moved=found.moved)
 
 
-def make_via(static, router, net: NetRules, head: Head, goal, mode: int, times) -> Outcome:
+def make_via(static, router, net: NetRules, head: Head, goal, mode: int, times,
+             target: int | None = None) -> Outcome:
+    """`make_line` to `goal`, then a through via there; the head goes to `via_layer`."""
     if mode != MARK_OBSTACLES and not router().via_fits(
             net.name, tuple(goal), net.via_diameter, net.clearance, tuple(static.layers)):
         because = "" if mode == WALKAROUND else "; tracks are moved for the line, not the via"
@@ -152,7 +160,8 @@ def make_via(static, router, net: NetRules, head: Head, goal, mode: int, times) 
     via = {"kind": "via", "net": net.name, "at": tuple(goal), "diameter": net.via_diameter,
            "drill": net.via_drill}
     return Outcome(True, edits=line.edits + [via],
-                   head=Head(goal[0], goal[1], via_layer(static, head.layer)), stats=line.stats,
+                   head=Head(goal[0], goal[1], via_layer(static, head.layer, target)),
+                   stats=line.stats,
                    moved=line.moved)
 
 

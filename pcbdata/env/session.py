@@ -65,6 +65,9 @@ class KicadSession:
     def apply(self, edits: list[dict], drc: bool) -> dict:
         return self._call("apply", edits, drc)
 
+    def prune(self, nets: list[str], drc: bool) -> dict:
+        return self._call("prune", list(nets), drc)
+
     def snapshot(self, drc: bool) -> dict:
         return self._call("snapshot", drc)
 

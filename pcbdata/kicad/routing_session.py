@@ -194,6 +194,43 @@ def apply(edits: list[dict], drc: bool = False) -> dict:
     return snapshot(drc)
 
 
+def _removal(item, names: dict[int, str]) -> dict:
+    """The removal edit of one KiCad track or via (with what `undo` needs to add it again)."""
+    pcbnew = _pcbnew()
+    net = str(item.GetNetname())
+    if item.Type() == pcbnew.PCB_VIA_T:
+        return {"kind": "remove_via", "net": net, "at": _xy(item.GetPosition()),
+                "diameter": int(item.GetWidth(item.TopLayer())),
+                "drill": int(item.GetDrillValue())}
+    return {"kind": "remove", "net": net, "layer": names[int(item.GetLayer())],
+            "start": _xy(item.GetStart()), "end": _xy(item.GetEnd()),
+            "width": int(item.GetWidth())}
+
+
+def prune(nets: list[str], drc: bool = False) -> dict:
+    """Deletes the tracks and vias of `nets` that KiCad's connectivity finds dangling (an end
+    or a via joined to nothing), again until none is left: the stubs and lone vias a route
+    that went nowhere leaves. Returns {"edits": the removals, in order, "snapshot":
+    `snapshot(drc)`, or None when nothing was removed}."""
+    board = _board()
+    pcbnew = _pcbnew()
+    names = {lid: name for name, lid in _STATE["layers"].items()}
+    wanted, edits = set(nets), []
+    kinds = (pcbnew.PCB_TRACE_T, pcbnew.PCB_VIA_T)
+    while True:
+        connectivity = board.GetConnectivity()
+        gone = [t for t in board.GetTracks() if t.Type() in kinds
+                and str(t.GetNetname()) in wanted
+                and connectivity.TestTrackEndpointDangling(t, False)]
+        if not gone:
+            break
+        for item in gone:
+            edits.append(_removal(item, names))
+            board.Delete(item)
+        board.BuildConnectivity()
+    return {"edits": edits, "snapshot": snapshot(drc) if edits else None}
+
+
 def save(path: str) -> str:
     """Writes the board (the instance's own board plus the added copper) as a `.kicad_pcb`;
     the project is not written (the evaluator uses the instance's own)."""

@@ -74,10 +74,11 @@ def _failed(reason: str, result) -> ShovePlan:
 
 
 def _movable(board: BoardGeometry, request: RouteRequest) -> list[CopperItem]:
-    """Other nets' straight tracks on the request's layer: the copper this mode may move."""
-    return sorted({item for item in board.copper
+    """Other nets' straight tracks on the request's layer: the copper this mode may move (a
+    track drawn twice is two KiCad tracks, so it stays twice: each needs its removal)."""
+    return sorted((item for item in board.copper
                    if item.kind == "track" and item.net not in ("", request.net)
-                   and request.layer in item.layers},
+                   and request.layer in item.layers),
                   key=_track_key)
 
 

@@ -51,6 +51,16 @@ def test_blocking_tracks_are_taken_up_and_their_net_joined_again_legally():
     assert done.stats["method"] == "shove" and done.stats["moved_tracks"] == 3
 
 
+def test_a_track_drawn_twice_is_taken_up_twice():
+    """Two identical tracks are two KiCad tracks: the plan removes each (one removal left one
+    of them under the new path)."""
+    geometry, req = _board(B_DIP[1]), request("A", (2, 9), (18, 9))
+    done = plan(WalkaroundRouter(geometry), req)
+    assert done.path is not None, done.reason
+    assert sorted(done.removed, key=str) == sorted(B_DIP + (B_DIP[1],), key=str)
+    assert min(exact_gaps(_after(geometry, done, req), req, done.path)) >= 0
+
+
 def test_the_plan_does_not_depend_on_item_order():
     geometry, req = _board(), request("A", (2, 9), (18, 9))
     items = list(geometry.copper)

@@ -47,7 +47,8 @@ DESCRIPTIONS = {
     "make_line": "Route from the head to a candidate point on the head's layer; the head moves "
                  "there.",
     "make_via": "Route to a candidate point like make_line, then drop a through via there; the "
-                "head goes to the other outer layer.",
+                "head goes to the other outer layer, or to the candidate's layer when that is "
+                "another layer (boards with inner layers list the head's point on each).",
     "finish": "Route from the head to the nearest pad of the net on the head's layer that is "
               "not yet joined to the head's copper.",
 }

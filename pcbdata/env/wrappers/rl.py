@@ -39,7 +39,7 @@ LIMIT = 1e6
 #: Keys of the flat `info` (always the same keys and types, so `gymnasium.vector` can batch it).
 INFO_KEYS = ("board_id", "step", "phase", "net", "rejected", "router_ok", "router_reason",
              "unconnected", "drv", "phi", "wl_mm", "vias", "drc_fresh", "observation_cut",
-             "engine_failure")
+             "engine_failure", "max_steps")
 
 
 def index_size(options) -> int:
@@ -120,6 +120,7 @@ def flat_info(info: dict) -> dict:
             "phi": float(info.get("phi", 0.0)), "wl_mm": float(info.get("wl_mm", 0.0)),
             "vias": int(info.get("vias", 0)), "drc_fresh": bool(info.get("drc_fresh", False)),
             "observation_cut": bool(info.get("observation_cut", False)),
+            "max_steps": int(info.get("max_steps", 0)),
             "engine_failure": str(info.get("engine_failure") or "")}
 
 
@@ -134,7 +135,6 @@ class RLWrapper(gym.Wrapper):
         options = env.unwrapped.options  # type: ignore[attr-defined]
         self.layout = features.Layout.from_options(options)
         self.index_size = index_size(options)
-        self.max_steps = options.max_steps
         self.observation_space = observation_space(options)
         self.action_space = spaces.MultiDiscrete([len(ACTION_TYPES), self.index_size,
                                                   len(MODES)])
@@ -171,8 +171,9 @@ class RLWrapper(gym.Wrapper):
         masks = info.get("action_mask") or self.env.unwrapped.action_masks()  # type: ignore
         index, mode = joint_masks(masks, self.index_size)
         self._flat = flat_mask(masks["type"], index, mode)
-        table, nets, valid, frame = features.entity_table(raw, masks, self.layout,
-                                                          self.max_steps, self._static)
+        limit = self.env.unwrapped.max_steps  # type: ignore[attr-defined] # the episode's
+        table, nets, valid, frame = features.entity_table(raw, masks, self.layout, limit,
+                                                          self._static)
         return {"entities": table, "entity_type": self._types.copy(), "entity_net": nets,
                 "entity_mask": valid, "scale_mm": np.asarray([frame.scale], dtype=np.float32),
                 "action_mask": self._flat.astype(np.int8), "index_mask": index,
