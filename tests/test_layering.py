@@ -26,7 +26,7 @@ LAYERS = (
     ("pcbdata.evaluator", "pcbdata.baselines", "pcbdata.builders"),
     ("pcbdata.env",),
     ("pcbdata.env.wrappers", "pcbdata.env.llm.wrapper"),
-    ("pcbdata.agents",),
+    ("pcbdata.agents", "pcbdata.learn"),
     ("pcbdata.cli", "pcbdata", "pcbdata.__main__"),
 )
 #: `from pcbdata import __version__` is metadata, not a layer.

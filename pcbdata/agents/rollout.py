@@ -28,12 +28,16 @@ from pcbdata.core.errors import UserError
 AGENTS = {"scripted": "pcbdata.agents.scripted:ScriptedAgent",
           "scripted-shove": "pcbdata.agents.scripted:ShovingScriptedAgent",
           "random": "pcbdata.agents.random:RandomAgent",
-          "d1": "pcbdata.agents.d1:D1Agent"}
+          "d1": "pcbdata.agents.d1:D1Agent",
+          "policy": "pcbdata.learn.agent:PolicyAgent"}
 
 
 def make_agent(spec: str, seed: int):
-    """An agent by name (`AGENTS`: scripted, scripted-shove, random, d1) or `module:Class`;
-    seeded when it takes one."""
+    """An agent by name (`AGENTS`: scripted, scripted-shove, random, d1, policy),
+    `policy:CHECKPOINT` (the learned router with another checkpoint) or `module:Class`; seeded
+    when it takes one."""
+    if spec.startswith("policy:"):
+        return _policy_agent(spec.partition(":")[2], seed)
     ref = AGENTS.get(spec, spec)
     module, _, name = ref.partition(":")
     if not name:
@@ -44,6 +48,14 @@ def make_agent(spec: str, seed: int):
         raise UserError(f"--agent {spec!r}: {exc}") from None
     takes_seed = "seed" in inspect.signature(cls).parameters
     return cls(seed=seed) if takes_seed else cls()
+
+
+def _policy_agent(path: str, seed: int):
+    try:
+        from pcbdata.learn.agent import PolicyAgent
+    except ImportError as exc:
+        raise UserError(f"--agent policy:{path}: needs the train extra (torch): {exc}") from None
+    return PolicyAgent(seed=seed, path=path)
 
 
 def run_episode(env, agent, board_id: str, seed: int) -> dict:
