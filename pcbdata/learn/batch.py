@@ -8,6 +8,7 @@ rows, not 1730. Pure numpy: `compact` runs in the environment loop, `collate` pa
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -33,7 +34,7 @@ def _rows(obs: Mapping[str, np.ndarray]) -> np.ndarray:
     return np.concatenate((np.arcsinh(table), onehot, mine[:, None].astype(np.float32)), axis=1)
 
 
-def compact(obs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+def compact(obs: Mapping[str, np.ndarray]) -> dict[str, Any]:
     """One observation (the RL wrapper's dict): net rows, candidate rows, then the other
     families' valid rows; `valid` marks rows holding an entity."""
     types = np.asarray(obs["entity_type"])
@@ -49,7 +50,7 @@ def compact(obs: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
             "mode_mask": np.asarray(obs["mode_mask"]).astype(bool)}
 
 
-def collate(items: Sequence[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+def collate(items: Sequence[dict[str, Any]]) -> dict[str, Any]:
     """Pads a batch of `compact` observations to its longest; all of one layout (nets, K)."""
     longest = max(len(it["x"]) for it in items)
     x = np.zeros((len(items), longest, WIDTH), dtype=np.float32)
