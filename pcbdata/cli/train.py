@@ -15,11 +15,13 @@ OPTIONS = {
     "updates": "PPO updates", "envs": "vector environments (spawned processes)",
     "rollout_steps": "steps per environment and update", "ppo_epochs": "epochs per update",
     "minibatch": "minibatch size", "lr_bc": "cloning learning rate",
-    "lr_ppo": "PPO learning rate", "entropy": "entropy bonus",
+    "lr_ppo": "PPO learning rate", "gamma": "discount", "lam": "GAE lambda",
+    "clip": "PPO ratio clip", "entropy": "entropy bonus",
     "val_boards": "validation boards (greedy)", "val_every": "validate every N updates",
     "checkpoint_every": "checkpoint every N updates",
 }
-TYPES = {"config": str, "drc": str, "lr_bc": float, "lr_ppo": float, "entropy": float}
+TYPES = {"config": str, "drc": str, "lr_bc": float, "lr_ppo": float, "gamma": float,
+         "lam": float, "clip": float, "entropy": float}
 
 
 def register(parser) -> None:

@@ -233,7 +233,7 @@ def ppo_update(policy, opt, ro: Rollout, last, s: Settings, update: int, dev) ->
             loss.backward()
             torch.nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
             opt.step()
-            stats.append((float(pg), float(vl), float(ent.mean())))
+            stats.append((pg.item(), vl.item(), ent.mean().item()))
     pg_m, vl_m, ent_m = np.mean(stats, axis=0) if stats else (0.0, 0.0, 0.0)
     return {"policy_loss": float(pg_m), "value_loss": float(vl_m), "entropy": float(ent_m)}
 

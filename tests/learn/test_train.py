@@ -53,7 +53,7 @@ def test_train_end_to_end_killed_then_resumed(tmp_path, capsys):
         assert record["settings"]["dim"] == 16 and isinstance(policy, SetPolicy)
     agent = make_agent(f"policy:{out / 'best.pt'}", 0)
     assert isinstance(agent, PolicyAgent) and agent.policy.dim == 16
-    assert main(argv[:3] + ["--seed", "1"]) == 2  # other settings in the same folder
+    assert main([*argv, "--seed=1"]) == 2  # other settings in the same folder
     assert "other settings (seed)" in capsys.readouterr().err
 
 
