@@ -314,11 +314,11 @@ def _bc_phase(run: Run, policy, dev, progress, log) -> None:
     row = {"phase": "bc", "update": 0, "env_steps": 0, "demos": len(demos),
            "bc_loss": losses[-1] if losses else None, "seconds": time.perf_counter() - began,
            **val}
-    log(f"bc: validation return {val['val_return']:.3f}, CP {val['val_cp']:.3f}")
     progress.update(phase="ppo", best=row)
     run.record(row, progress)
     save_policy(policy, run.out / "best.pt", policy_record(s, progress, row))
     run.save(policy, None, progress)
+    log(f"bc: validation return {val['val_return']:.3f}, CP {val['val_cp']:.3f}")
 
 
 def _ppo_phase(run: Run, policy, opt, dev, progress, log) -> None:

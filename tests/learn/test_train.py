@@ -68,7 +68,7 @@ def test_shipped_policy_rollouts_are_identical(learn_set, tmp_path, capsys):
     for name in ("a", "b"):
         out = tmp_path / name
         argv = ["rollout", str(learn_set), "--config", "d2", "--agent", "policy",
-                "--max-steps", "40", "--drc", "terminal", "--workers", "1", "--out", str(out)]
+                "--max-steps", "20", "--drc", "terminal", "--workers", "1", "--out", str(out)]
         assert main(argv) == 0
         runs.append(out)
     assert "done: 8 rollouts run" in capsys.readouterr().out
