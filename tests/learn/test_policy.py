@@ -9,7 +9,7 @@ torch = pytest.importorskip("torch")
 
 from pcbdata.env.types import FINISH, IDLE, MAKE_LINE, MAKE_VIA, NET_SELECT  # noqa: E402
 from pcbdata.learn import batch as batching  # noqa: E402
-from pcbdata.learn.policy import SetPolicy, to_tensors  # noqa: E402
+from pcbdata.learn.policy import SetPolicy, device, to_tensors  # noqa: E402
 
 
 def _item(rng, n_nets: int, n_cands: int, extra: int, k: int) -> dict:
@@ -32,12 +32,13 @@ def _item(rng, n_nets: int, n_cands: int, extra: int, k: int) -> dict:
 @pytest.mark.parametrize(("n_nets", "n_cands", "k"), [(32, 64, 64), (1024, 64, 1024)])
 def test_sampled_actions_are_never_masked(n_nets, n_cands, k):
     rng = np.random.default_rng(0)
-    policy = SetPolicy(dim=16)
+    dev = device()  # one torch thread on the CPU, as in training
+    policy = SetPolicy(dim=16).to(dev)
     items = [_item(rng, n_nets, n_cands, extra, k) for extra in (3, 40, 200, 7)]
-    batch = to_tensors(batching.collate(items), torch.device("cpu"))
-    gen = torch.Generator().manual_seed(0)
+    batch = to_tensors(batching.collate(items), dev)
+    gen = torch.Generator(device=dev).manual_seed(0)
     seen = set()
-    for _ in range(50):
+    for _ in range(25):
         actions, logp, value = policy.act(batch, generator=gen)
         for item, (t, i, m) in zip(items, actions.tolist(), strict=True):
             assert item["index_mask"][t, i] and item["mode_mask"][t, m], (t, i, m)
