@@ -19,7 +19,8 @@ def register(parser) -> None:
     parser.add_argument("--agent", default="scripted",
                         help="scripted (default), scripted-shove (push_n_shove when walkaround "
                              "fails), d1 (D1 boards: lattice plan with rip-up and reroute), "
-                             "random, or module:Class with act(obs, info)")
+                             "random, policy (the shipped learned router; policy:CHECKPOINT for "
+                             "another, docs/learn.md), or module:Class with act(obs, info)")
     parser.add_argument("--rollouts", type=int, default=1, help="rollouts per board (seeds 0..)")
     parser.add_argument("--out", required=True, metavar="RUNS",
                         help="RUNS/<board_id>/<rollout>.kicad_pcb + .json (pcbdata eval reads it)")
