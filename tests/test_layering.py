@@ -26,7 +26,7 @@ LAYERS = (
     ("pcbdata.evaluator", "pcbdata.baselines", "pcbdata.builders"),
     ("pcbdata.env",),
     ("pcbdata.env.wrappers", "pcbdata.env.llm.wrapper"),
-    ("pcbdata.agents",),
+    ("pcbdata.agents", "pcbdata.learn"),
     ("pcbdata.cli", "pcbdata", "pcbdata.__main__"),
     ("pcbdata.testing",),
 )

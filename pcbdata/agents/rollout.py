@@ -32,13 +32,17 @@ AGENTS = {"scripted": "pcbdata.agents.scripted:ScriptedAgent",
           "d1": "pcbdata.agents.d1:D1Agent",
           "llm": "pcbdata.agents.llm_agents:LLMAgent",
           "llm-plan": "pcbdata.agents.llm_agents:PlanAgent",
-          "llm-direct": "pcbdata.agents.llm_agents:DirectAgent"}
+          "llm-direct": "pcbdata.agents.llm_agents:DirectAgent",
+          "policy": "pcbdata.learn.agent:PolicyAgent"}
 
 
 def make_agent(spec: str, seed: int, options: dict | None = None):
     """An agent by name (`AGENTS`: scripted, scripted-shove, random, d1, llm, llm-plan,
-    llm-direct) or `module:Class`; seeded when it takes one; `options` (plain data, e.g. a
-    language model's server and sampling) are passed as keyword arguments."""
+    llm-direct, policy), `policy:CHECKPOINT` (the learned router with another checkpoint) or
+    `module:Class`; seeded when it takes one; `options` (plain data, e.g. a language model's
+    server and sampling) are passed as keyword arguments."""
+    if spec.startswith("policy:"):
+        return _policy_agent(spec.partition(":")[2], seed)
     ref = AGENTS.get(spec, spec)
     module, _, name = ref.partition(":")
     if not name:
@@ -55,6 +59,14 @@ def make_agent(spec: str, seed: int, options: dict | None = None):
                             f"({', '.join(sorted(options))})")
         kwargs.update(options)
     return cls(**kwargs)
+
+
+def _policy_agent(path: str, seed: int):
+    try:
+        from pcbdata.learn.agent import PolicyAgent
+    except ImportError as exc:
+        raise UserError(f"--agent policy:{path}: needs the train extra (torch): {exc}") from None
+    return PolicyAgent(seed=seed, path=path)
 
 
 def run_episode(env, agent, board_id: str, seed: int) -> dict:

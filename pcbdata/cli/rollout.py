@@ -47,8 +47,9 @@ def register(parser) -> None:
                              "fails), d1 (D1 boards: lattice plan with rip-up and reroute), "
                              "random, llm (a language model, one request per step), llm-plan "
                              "(one request: the whole action sequence), llm-direct (one "
-                             "request: the copper as .kicad_pcb items), or module:Class with "
-                             "act(obs, info)")
+                             "request: the copper as .kicad_pcb items), policy (the shipped "
+                             "learned router; policy:CHECKPOINT for another, docs/learn.md), "
+                             "or module:Class with act(obs, info)")
     parser.add_argument("--rollouts", type=int, default=1, help="rollouts per board (seeds 0..)")
     parser.add_argument("--out", required=True, metavar="RUNS",
                         help="RUNS/<board_id>/<rollout>.kicad_pcb + .json (pcbdata eval reads it)")

@@ -1,0 +1,41 @@
+"""The `policy` agent of `pcbdata rollout` (`--agent policy`: the shipped checkpoint;
+`--agent policy:PATH`: any checkpoint). Every action comes from the network: argmax for
+rollout 0, masked sampling seeded by the rollout number otherwise (the @k rollouts)."""
+from __future__ import annotations
+
+import numpy as np
+import torch
+
+from pcbdata.env.wrappers import features
+from pcbdata.env.wrappers.rl import env_action
+from pcbdata.learn import batch as batching
+from pcbdata.learn.checkpoint import load_policy
+from pcbdata.learn.policy import device, to_tensors
+
+
+class PolicyAgent:
+    """Reads the environment's own observation and `info["action_mask"]`."""
+
+    def __init__(self, seed: int = 0, path: str | None = None):
+        self.device = device()
+        self.policy, self.record = load_policy(path, self.device)
+        self.greedy = seed == 0
+        self.generator = torch.Generator(device=self.device).manual_seed(seed)
+        self._layout: features.Layout | None = None
+        self._static: features.StaticRows | None = None
+
+    def act(self, obs, info) -> dict:
+        if int(obs["step"]) == 0 or self._layout is None:  # a new episode
+            self._layout = batching.layout_of(obs)
+            self._static = features.static_rows(obs, self._layout)
+        wrapped = batching.wrapped_observation(obs, info["action_mask"], self._layout,
+                                               self._static)
+        return env_action(self.triple(wrapped))
+
+    def triple(self, wrapped: dict) -> np.ndarray:
+        """The (type, index, mode) the network picks for one RL-wrapper observation."""
+        items = batching.collate([batching.compact(wrapped)])
+        with torch.no_grad():
+            actions, _, _ = self.policy.act(to_tensors(items, self.device), self.greedy,
+                                            self.generator)
+        return actions[0].cpu().numpy().astype(np.int64)

@@ -1,0 +1,95 @@
+"""`pcbdata train` end to end on a tiny budget (a kill and the resume included), the shipped
+checkpoint's rollouts (identical twice), and a short run beating the untrained network."""
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import pytest
+
+pytest.importorskip("torch")
+
+from pcbdata.agents.rollout import make_agent  # noqa: E402
+from pcbdata.cli import main  # noqa: E402
+from pcbdata.core.errors import UserError  # noqa: E402
+from pcbdata.learn import train as training  # noqa: E402
+from pcbdata.learn.agent import PolicyAgent  # noqa: E402
+from pcbdata.learn.checkpoint import load_policy, shipped_path  # noqa: E402
+from pcbdata.learn.policy import SetPolicy  # noqa: E402
+
+TINY = training.Settings(dim=16, max_steps=8, bc_boards=2, bc_epochs=2, train_boards=4,
+                         updates=1, envs=1, rollout_steps=6, minibatch=8, val_boards=1,
+                         val_every=1, checkpoint_every=1)
+
+
+class Killed(Exception):
+    pass
+
+
+def _kill_after(text: str):
+    def log(line: str) -> None:
+        if text in line:
+            raise Killed(line)
+    return log
+
+
+def test_train_end_to_end_killed_then_resumed(tmp_path, capsys):
+    out = tmp_path / "run"
+    with pytest.raises(Killed):  # stops right after the cloning phase was saved
+        training.train(out, replace(TINY, updates=2), log=_kill_after("bc: validation"))
+    assert json.loads((out / "settings.json").read_text())["seed"] == 0
+    argv = ["train", "--out", str(out)] + [
+        f"--{k.replace('_', '-')}={v}" for k, v in vars(replace(TINY, updates=2)).items()]
+    assert main(argv) == 0
+    printed = capsys.readouterr().out
+    assert "bc: board" not in printed  # resumed: cloning is not done again
+    assert "ppo: update 1/2" in printed and "ppo: update 2/2" in printed
+    rows = [json.loads(line) for line in (out / "log.jsonl").read_text().splitlines()]
+    assert [(r["phase"], r["update"]) for r in rows] == [("bc", 0), ("ppo", 1), ("ppo", 2)]
+    assert all(r["steps_per_s"] > 0 and "val_cp" in r for r in rows[1:])
+    assert (out / "curve.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    for name in ("best.pt", "checkpoints/update_00001.pt", "checkpoints/update_00002.pt"):
+        policy, record = load_policy(out / name)
+        assert record["settings"]["dim"] == 16 and isinstance(policy, SetPolicy)
+    agent = make_agent(f"policy:{out / 'best.pt'}", 0)
+    assert isinstance(agent, PolicyAgent) and agent.policy.dim == 16
+    assert main([*argv, "--seed=1"]) == 2  # other settings in the same folder
+    assert "other settings (seed)" in capsys.readouterr().err
+
+
+def test_a_missing_checkpoint_is_a_user_error(tmp_path):
+    with pytest.raises(UserError, match="no such checkpoint"):
+        make_agent(f"policy:{tmp_path / 'none.pt'}", 0)
+
+
+def test_shipped_policy_rollouts_are_identical(learn_set, tmp_path, capsys):
+    assert shipped_path().is_file()
+    runs = []
+    for name in ("a", "b"):
+        out = tmp_path / name
+        argv = ["rollout", str(learn_set), "--config", "d2", "--agent", "policy",
+                "--max-steps", "20", "--drc", "terminal", "--workers", "1", "--out", str(out)]
+        assert main(argv) == 0
+        runs.append(out)
+    assert "done: 8 rollouts run" in capsys.readouterr().out
+    for board in sorted(p.name for p in runs[0].iterdir()):
+        a, b = (json.loads((r / board / "0.json").read_text()) for r in runs)
+        a.pop("time_s"), b.pop("time_s")
+        assert a == b and a["agent"] == "policy"
+        assert ((runs[0] / board / "0.kicad_pcb").read_bytes()
+                == (runs[1] / board / "0.kicad_pcb").read_bytes())
+
+
+def test_short_run_beats_the_untrained_network():
+    """Cloning on a few boards raises the greedy validation return (seconds, not minutes)."""
+    import torch
+
+    s = replace(TINY, dim=32, max_steps=30, bc_boards=6, bc_epochs=15, val_boards=3,
+                minibatch=32)
+    torch.manual_seed(s.seed)
+    policy = SetPolicy(dim=s.dim)
+    dev = torch.device("cpu")
+    before = training.validate(policy, s, dev)
+    training.clone(policy, training.scripted_demos(s, lambda _: None), s, dev, lambda _: None)
+    after = training.validate(policy, s, dev)
+    assert after["val_return"] > before["val_return"], (before, after)
