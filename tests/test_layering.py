@@ -25,7 +25,7 @@ LAYERS = (
     ("pcbdata.publish",),
     ("pcbdata.evaluator", "pcbdata.baselines", "pcbdata.builders"),
     ("pcbdata.env",),
-    ("pcbdata.env.wrappers", "pcbdata.env.llm.wrapper"),
+    ("pcbdata.env.wrappers", "pcbdata.env.llm"),
     ("pcbdata.agents", "pcbdata.learn"),
     ("pcbdata.cli", "pcbdata", "pcbdata.__main__"),
     ("pcbdata.testing",),
