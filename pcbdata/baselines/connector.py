@@ -275,8 +275,9 @@ def _cell_paths(values: np.ndarray) -> list[list[Cell]]:
 def convert_rollouts(set_root: str | Path, config: str, split: str, solutions: str | Path,
                      out_runs: str | Path) -> dict:
     """Writes `out_runs/<board_id>/<k>.kicad_pcb` (+ `<k>.json` when the solutions carry
-    `time_s`) for every row and rollout of the solutions file. Returns counts: boards, rollouts,
-    agents, and agents connected (a path from start to target)."""
+    `time_s`) for every row and rollout of the solutions file; nothing is written unless every
+    rollout converts. Returns counts: boards, rollouts, agents, and agents connected (a path
+    from start to target)."""
     arrays = _split_arrays(set_root, config, split)
     sol = load_solutions(solutions)
     ids = sol["board_ids"] or arrays["board_ids"][: len(sol["values"])]
@@ -284,6 +285,7 @@ def convert_rollouts(set_root: str | Path, config: str, split: str, solutions: s
         raise UserError(f"{solutions}: {len(ids)} board_ids for {len(sol['values'])} rows")
     row_of = {b: r for r, b in enumerate(arrays["board_ids"])}
     counts = {"boards": 0, "rollouts": 0, "agents": 0, "connected": 0}
+    files: dict[Path, str] = {}
     for board_id, rollouts, times in zip(ids, sol["values"], _times(sol)):
         if board_id not in row_of:
             raise UserError(f"{solutions}: board {board_id!r} is not in {config}/{split}")
@@ -292,13 +294,20 @@ def convert_rollouts(set_root: str | Path, config: str, split: str, solutions: s
         for k, value in enumerate(rollouts):
             paths = (grid_to_paths(value, starts, targets) if sol["kind"] == "grids"
                      else _cell_paths(value))
-            _write_rollout(set_root, config, split, board_id, k, arrays["grid_size"], paths,
-                           starts, targets, out_runs, None if times is None else times[k])
+            text = paths_to_board(board_dir(set_root, config, split, board_id),
+                                  arrays["grid_size"], paths, starts, targets,
+                                  uuid_seed=f"connector/{config}/{split}/{board_id}/{k}")
+            folder = Path(out_runs) / board_id
+            files[folder / f"{k}.kicad_pcb"] = text
+            if times is not None:
+                files[folder / f"{k}.json"] = json.dumps(
+                    {"time_s": float(times[k]), "source": "connector"}, sort_keys=True)
             counts["rollouts"] += 1
             counts["agents"] += len(paths)
             counts["connected"] += sum(_connected(p, s, t)
                                        for p, s, t in zip(paths, starts, targets))
         counts["boards"] += 1
+    _write(files)
     return counts
 
 
@@ -311,17 +320,11 @@ def _connected(path: Sequence[Cell], start, target) -> bool:
     return len(path) >= 2 and {path[0], path[-1]} == ends
 
 
-def _write_rollout(set_root, config, split, board_id, k, grid_size, paths, starts, targets,
-                   out_runs, time_s) -> None:
-    instance = board_dir(set_root, config, split, board_id)
-    text = paths_to_board(instance, grid_size, paths, starts, targets,
-                          uuid_seed=f"connector/{config}/{split}/{board_id}/{k}")
-    folder = Path(out_runs) / board_id
-    folder.mkdir(parents=True, exist_ok=True)
-    write_atomic(folder / f"{k}.kicad_pcb", text)
-    if time_s is not None:
-        write_atomic(folder / f"{k}.json", json.dumps({"time_s": float(time_s),
-                                                       "source": "connector"}, sort_keys=True))
+def _write(files: dict[Path, str]) -> None:
+    """Boards before their JSON: a rollout with its JSON is complete (as `pcbdata rollout`)."""
+    for path in sorted(files, key=lambda p: (p.suffix == ".json", p)):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        write_atomic(path, files[path])
 
 
 def _split_arrays(set_root, config: str, split: str) -> dict:
