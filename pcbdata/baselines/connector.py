@@ -186,6 +186,9 @@ def segments_text(board: BoardText, paths: Sequence[Sequence[Cell]], starts, tar
         check_path(path, board.grid_size, agent)
         if len(path) < 2:
             continue
+        if tuple(path[0]) not in {_cell(starts[agent]), _cell(targets[agent])}:
+            raise UserError(f"agent {agent}'s path begins at {tuple(path[0])}, not at its "
+                            f"start {_cell(starts[agent])} or target {_cell(targets[agent])}")
         net = board.net_of(agent, _cell(starts[agent]), _cell(targets[agent]))
         ends = [board.centre(c) for c in corners(path)]
         for (x1, y1), (x2, y2) in zip(ends, ends[1:]):

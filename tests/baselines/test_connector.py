@@ -139,6 +139,12 @@ def test_bad_solutions_write_nothing(d1_set, tmp_path):
         connector.convert_rollouts(d1_set, CONFIG, "test", tmp_path / "bad.npz",
                                    tmp_path / "runs")
     assert not (tmp_path / "runs").exists()
+    start = _arrays(d1_set)["starts"][0, 0]
+    paths[0, 0, :2] = [start[0] + 1 - 2 * (start[0] == 9), start[1]], start
+    np.savez(tmp_path / "bad.npz", paths=paths)
+    with pytest.raises(UserError, match="agent 0's path begins at"):
+        connector.convert_rollouts(d1_set, CONFIG, "test", tmp_path / "bad.npz",
+                                   tmp_path / "runs")
     np.savez(tmp_path / "none.npz", time_s=np.zeros(2))
     assert main(["convert-connector", str(d1_set), "--config", CONFIG, "--solutions",
                  str(tmp_path / "none.npz"), "--out", str(tmp_path / "runs")]) == 2
