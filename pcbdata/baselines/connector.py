@@ -132,8 +132,8 @@ class BoardText:
         self.text, self.where = text, where
         self.pitch = D1Params(grid_size).pitch_nm
         self.grid_size = grid_size
-        blocks = [(h, text[s:e]) for h, s, e in top_level_blocks(text.encode())]
-        # ASCII board files: byte offsets are character offsets.
+        data = text.encode()
+        blocks = [(h, data[s:e].decode()) for h, s, e in top_level_blocks(data)]
         self.nets = {int(m[1]): m[2] for h, b in blocks if h == "net"
                      for m in [_NET_DECL.match(b)] if m}
         self.pad_nets: dict[Cell, int] = {}
@@ -202,17 +202,17 @@ def segments_text(board: BoardText, paths: Sequence[Sequence[Cell]], starts, tar
 
 def insert_items(text: str, items: str) -> str:
     """The board text with `items` added as top-level blocks (before `embedded_fonts`, where
-    KiCad writes its tracks)."""
-    blocks = top_level_blocks(text.encode())
+    KiCad writes its tracks, else after the last block)."""
+    data = text.encode()
+    blocks = top_level_blocks(data)
     if not blocks:
         raise UserError("not a KiCad board: no top-level blocks")
     fonts = [s for h, s, _ in blocks if h == "embedded_fonts"]
-    at = fonts[-1] if fonts else blocks[-1][2] + 1
-    if not fonts:
-        items = "\n" + items.rstrip("\n")
-    else:
-        at = text.rfind("\n", 0, at) + 1
-    return text[:at] + items + text[at:]
+    if fonts:
+        at = data.rfind(b"\n", 0, fonts[-1]) + 1
+        return (data[:at] + items.encode() + data[at:]).decode()
+    end = blocks[-1][2]
+    return (data[:end] + b"\n" + items.rstrip("\n").encode() + data[end:]).decode()
 
 
 def paths_to_board(instance_dir: str | Path, grid_size: int, paths: Sequence[Sequence[Cell]],
