@@ -168,3 +168,28 @@ def test_jumanji_connector_rollouts_score_as_jumanji_counts(d1_set, tmp_path):
     by_board = {r["board_id"]: float(r["rout"]) for r in rows}
     for board_id, share in zip(result["board_ids"], ratio):
         assert by_board[str(board_id)] == pytest.approx(float(share))
+
+
+def test_grids_with_rollout_axis_match_the_same_paths(d1_set, tmp_path):
+    arrays = _arrays(d1_set)
+    starts, targets = arrays["starts"][:2], arrays["targets"][:2]
+    plans, grids = [], []
+    for ss, ts in zip(starts, targets):
+        empty = np.zeros((10, 10), dtype=np.int32)
+        for a, (s, t) in enumerate(zip(ss, ts)):
+            empty[tuple(s)], empty[tuple(t)] = 2 + 3 * a, 3 + 3 * a
+        plan = plan_paths(empty, ss, ts)
+        plans.append(plan)
+        grids.append(_grid(10, plan, [tuple(t) for t in ts]))
+    np.savez(tmp_path / "grids.npz", grids=np.stack([grids, grids], axis=1),
+             board_ids=arrays["board_ids"][:2], time_s=[[1.0, 2.0], [3.0, 4.0]])
+    np.savez(tmp_path / "paths.npz", paths=_padded(plans, 100))
+    connector.convert_rollouts(d1_set, CONFIG, "test", tmp_path / "grids.npz", tmp_path / "g")
+    connector.convert_rollouts(d1_set, CONFIG, "test", tmp_path / "paths.npz", tmp_path / "p")
+    for board in ("board_00000", "board_00001"):
+        from_paths = _SEGMENT.findall((tmp_path / "p" / board / "0.kicad_pcb").read_text())
+        for k in (0, 1):
+            text = (tmp_path / "g" / board / f"{k}.kicad_pcb").read_text()
+            assert _SEGMENT.findall(text) == from_paths
+        assert not (tmp_path / "p" / board / "0.json").exists()
+    assert '"time_s": 4.0' in (tmp_path / "g" / "board_00001" / "1.json").read_text()
