@@ -218,3 +218,43 @@ def png_bytes(image: np.ndarray) -> bytes:
     out = io.BytesIO()
     Image.fromarray(image).save(out, format="PNG", optimize=False, compress_level=9)
     return out.getvalue()
+
+
+CHART_W, CHART_H, CHART_PAD = 360, 200, 30
+
+
+def _chart_panel(draw: ImageDraw.ImageDraw, ox: int, oy: int, title: str, points) -> None:
+    draw.rectangle((ox, oy, ox + CHART_W - 1, oy + CHART_H - 1), outline=(0, 0, 0))
+    draw.text((ox + 6, oy + 4), title, fill=(0, 0, 0))
+    if not points:
+        return
+    xs, ys = [p[0] for p in points], [p[1] for p in points]
+    lo, hi = min(ys), max(ys)
+    span_x, span_y = (max(xs) - min(xs)) or 1, (hi - lo) or 1
+    draw.text((ox + 6, oy + CHART_H - 14), f"min {lo:.3g}  max {hi:.3g}  last {ys[-1]:.3g}",
+              fill=(80, 80, 80))
+
+    def at(x, y):
+        return (ox + CHART_PAD + (x - min(xs)) / span_x * (CHART_W - 2 * CHART_PAD),
+                oy + CHART_H - CHART_PAD - (y - lo) / span_y * (CHART_H - 2 * CHART_PAD))
+
+    pts = [at(x, y) for x, y in points]
+    if len(pts) > 1:
+        draw.line(pts, fill=(30, 90, 200), width=2)
+    for x, y in pts:
+        draw.rectangle((x - 2, y - 2, x + 2, y + 2), fill=(200, 60, 30))
+
+
+Points = list[tuple[float, float]]
+
+
+def line_charts(panels: list[tuple[str, Points]], columns: int = 2) -> np.ndarray:
+    """Line charts of (title, points) panels on a grid, as an RGB array: deterministic (no
+    anti-aliasing, fixed colours), e.g. a learning curve."""
+    rows = max(1, -(-len(panels) // columns))
+    image = Image.new("RGB", (columns * CHART_W, rows * CHART_H), (255, 255, 255))
+    draw = ImageDraw.Draw(image)
+    draw.fontmode = "1"
+    for n, (title, points) in enumerate(panels):
+        _chart_panel(draw, (n % columns) * CHART_W, (n // columns) * CHART_H, title, points)
+    return np.asarray(image, dtype=np.uint8)
