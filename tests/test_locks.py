@@ -110,6 +110,22 @@ def test_two_builds_of_different_splits_into_one_folder_both_land(tmp_path):
     assert verify.returncode == 0, verify.stdout + verify.stderr
 
 
+def test_another_builds_writability_probe_is_not_content(tmp_path):
+    """Two builds started together: the first proves the new folder writable with a probe file
+    that the second must not take for foreign content (the cause of a refused second build)."""
+    from pcbdata.core.fsutil import PROBE_PREFIX
+    from pcbdata.core.errors import UserError
+    from pcbdata.synthetic.build import check_root
+
+    out = tmp_path / "set"
+    out.mkdir()
+    (out / f"{PROBE_PREFIX}x1y2.tmp").write_bytes(b"")
+    assert check_root(out) == out
+    (out / "notes.txt").write_text("mine")
+    with pytest.raises(UserError, match="is not a pcbdata board set"):
+        check_root(out)
+
+
 def test_two_builds_of_one_split_started_apart_both_succeed(tmp_path):
     out = tmp_path / "set"
     first = build_d2(out, "test", 64, "--no-check")

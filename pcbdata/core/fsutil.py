@@ -79,6 +79,9 @@ def remove_stale_temps(root: str | os.PathLike) -> int:
 
 LOCK_DIR = ".pcbdata"
 LOCK_NAME = "lock"
+# The file `output_folder` writes and removes at once to prove a folder writable: another
+# process may see it for a moment, and must not take it for content.
+PROBE_PREFIX = ".pcbdata-probe."
 _held: dict[str, int] = {}  # lock files this process holds -> nesting depth
 _held_guard = threading.Lock()
 
@@ -152,7 +155,7 @@ def output_folder(path: str | os.PathLike, option: str = "--out") -> Path:
     created = [p for p in (path, *path.parents) if not p.exists()]
     try:
         path.mkdir(parents=True, exist_ok=True)
-        fd, probe = tempfile.mkstemp(prefix=".pcbdata-probe.", suffix=".tmp", dir=path)
+        fd, probe = tempfile.mkstemp(prefix=PROBE_PREFIX, suffix=".tmp", dir=path)
         os.close(fd)
         os.unlink(probe)
     except OSError as exc:

@@ -18,7 +18,13 @@ from pathlib import Path
 
 from pcbdata import __version__
 from pcbdata.core.errors import EngineError, GenerationError, UserError, ValidationError
-from pcbdata.core.fsutil import folder_lock, remove_stale_temps, write_atomic, write_dir_atomic
+from pcbdata.core.fsutil import (
+    PROBE_PREFIX,
+    folder_lock,
+    remove_stale_temps,
+    write_atomic,
+    write_dir_atomic,
+)
 from pcbdata.core.hashing import sha256_bytes
 from pcbdata.core.rng import SEED_SCHEME
 from pcbdata.core.tree import (
@@ -154,7 +160,7 @@ def check_root(root: str | Path) -> Path:
     root = Path(root)
     if root.exists() and not root.is_dir():
         raise UserError(f"{root}: exists and is not a folder")
-    if root.is_dir() and any(root.iterdir()):
+    if root.is_dir() and any(not p.name.startswith(PROBE_PREFIX) for p in root.iterdir()):
         if not ((root / MANIFEST_NAME).exists() or (root / STATE_DIR).exists()):
             raise UserError(f"{root}: folder is not empty and is not a pcbdata board set; "
                             f"choose an empty or new --out folder")
