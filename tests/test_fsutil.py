@@ -24,3 +24,24 @@ def test_leftovers_of_a_killed_writer_are_removed(tmp_path):
     (tmp_path / "keep.txt").write_text("x")
     assert remove_stale_temps(tmp_path) == 2
     assert [p.name for p in tmp_path.iterdir()] == ["keep.txt"]
+
+
+def test_temp_folders_of_killed_owners_are_swept(tmp_path, monkeypatch):
+    import subprocess
+    import sys
+    import tempfile
+
+    from pcbdata.core.fsutil import owned_temp_folder
+
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True)
+    dead = tmp_path / f"pcbdata-pool-{gone.stdout.strip()}-abc"
+    alive = tmp_path / f"pcbdata-pool-{os.getpid()}-def"
+    other_kind = tmp_path / f"pcbdata-env-{gone.stdout.strip()}-ghi"
+    for folder in (dead, alive, other_kind):
+        (folder / "stage").mkdir(parents=True)
+    made = owned_temp_folder("pool")
+    assert made.startswith(str(tmp_path / f"pcbdata-pool-{os.getpid()}-"))
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        [alive.name, other_kind.name, os.path.basename(made)])

@@ -27,6 +27,39 @@ _FILE_MODE = 0o666 & ~_current_umask()
 _DIR_MODE = 0o777 & ~_current_umask()
 
 
+def owned_temp_folder(kind: str) -> str:
+    """A new private folder `pcbdata-<kind>-<pid>-XXXXXXXX` in the system temp dir.
+
+    Its owner removes it when done; one killed by a signal cannot, so the folders of the same
+    kind whose owning process is gone are removed here first (a process of another user, or
+    one still running, keeps its folder)."""
+    prefix = f"pcbdata-{kind}-"
+    root = Path(tempfile.gettempdir())
+    with contextlib.suppress(OSError):
+        for entry in root.iterdir():
+            owner = _owner_pid(entry.name, prefix)
+            if owner is not None and not _process_exists(owner):
+                shutil.rmtree(entry, ignore_errors=True)
+    return tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}-", dir=root)
+
+
+def _owner_pid(name: str, prefix: str) -> int | None:
+    if not name.startswith(prefix):
+        return None
+    head = name[len(prefix):].split("-", 1)[0]
+    return int(head) if head.isdigit() else None
+
+
+def _process_exists(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
 def write_atomic(path: str | os.PathLike, data: bytes | str) -> None:
     """Writes `data` to `path` so that a reader (or a killed writer) never sees half a file."""
     path = Path(path)

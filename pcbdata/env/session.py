@@ -3,10 +3,10 @@ time limit per task) that holds the board (`pcbdata.kicad.routing_session`)."""
 from __future__ import annotations
 
 import shutil
-import tempfile
 import weakref
 from pathlib import Path
 
+from pcbdata.core.fsutil import owned_temp_folder
 from pcbdata.env.errors import EngineFailure
 from pcbdata.kicad import fastwait
 from pcbdata.kicad.pool import KicadPool
@@ -22,7 +22,7 @@ class KicadSession:
         self._task_timeout, self._env = task_timeout, self.worker_env(env, fast_drc)
         self._pool = self._new_pool()
         self._opened = 0
-        self.work = Path(tempfile.mkdtemp(prefix="pcbdata-env-"))  # private: stage, instance
+        self.work = Path(owned_temp_folder("env"))  # private: stage, instance
         self.alive = False
         # An environment dropped without close() still stops its worker and removes its folder.
         self._finalizer = weakref.finalize(self, _release, self._pool, str(self.work))

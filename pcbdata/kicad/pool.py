@@ -20,7 +20,6 @@ import signal
 import site
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 import weakref
@@ -30,6 +29,7 @@ from multiprocessing import Pipe
 from pathlib import Path
 from typing import Any
 
+from pcbdata.core.fsutil import owned_temp_folder
 from pcbdata.kicad import fastwait
 
 #: Default memory limit of one worker (resident set), in MiB; 0 means no limit.
@@ -267,7 +267,7 @@ class KicadPool:
         self.memory_limit_mb = memory_limit_from_env(memory_limit_mb)
         # Workers' temporary files live in a folder of the pool's, removed when it closes: a
         # worker killed at its time limit cannot clean up after itself.
-        self._tmp = tempfile.mkdtemp(prefix="pcbdata-pool-")
+        self._tmp = owned_temp_folder("pool")
         self._cleanup = weakref.finalize(self, shutil.rmtree, self._tmp, True)
         # KiCad's DRC sleeps 250 ms per call without it (fastwait.py); `env` may turn it off
         env = {"TMPDIR": self._tmp, **fastwait.preload_env(), **(env or {})}

@@ -95,14 +95,14 @@ def test_out_folder_with_foreign_files_is_refused(tmp_path):
 
 
 def test_a_killed_build_resumes_to_the_same_bytes(tmp_path):
-    args = ["build", "d2", "--splits", "train", "--count", "3000", "--check-train", "300"]
+    args = ["build", "d2", "--splits", "train", "--count", "1000", "--check-train", "100"]
     clean = tmp_path / "clean"
     assert run_cli(*args, "--out", clean).returncode == 0
     resumed = tmp_path / "resumed"
     process = subprocess.Popen([*PCBDATA, *args, "--out", str(resumed)], start_new_session=True,
                                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 60
-    while time.time() < deadline and len(list((resumed / "d2" / "train").glob("board_*"))) < 300:
+    while time.time() < deadline and len(list((resumed / "d2" / "train").glob("board_*"))) < 100:
         time.sleep(0.05)
     os.killpg(process.pid, signal.SIGKILL)
     process.wait()
