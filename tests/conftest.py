@@ -3,7 +3,9 @@ temporary folder, so tests neither read nor write the user's files."""
 from __future__ import annotations
 
 import atexit
+import fcntl
 import os
+import pickle
 import shutil
 import subprocess
 import tempfile
@@ -21,11 +23,13 @@ else:
     _CACHE_ROOT = Path(tempfile.mkdtemp(prefix="pcbdata-test-caches-"))
     os.environ["PCBDATA_TEST_CACHES"] = str(_CACHE_ROOT)
     atexit.register(shutil.rmtree, _CACHE_ROOT, True)
+# Each pytest-xdist worker its own caches: KiCad writes its config folder on first use.
+_WORKER_CACHES = _CACHE_ROOT / os.environ.get("PYTEST_XDIST_WORKER", "main")
 for _var, _sub in (("HF_HOME", "hf"), ("HF_DATASETS_CACHE", "hf/datasets"),
                    ("KICAD_CONFIG_HOME", "kicad-config"), ("XDG_CONFIG_HOME", "xdg-config"),
                    ("XDG_CACHE_HOME", "xdg-cache")):
-    os.environ[_var] = str(_CACHE_ROOT / _sub)
-    (_CACHE_ROOT / _sub).mkdir(parents=True, exist_ok=True)
+    os.environ[_var] = str(_WORKER_CACHES / _sub)
+    (_WORKER_CACHES / _sub).mkdir(parents=True, exist_ok=True)
 os.environ["HF_HUB_OFFLINE"] = "1"
 os.environ["HF_DATASETS_OFFLINE"] = "1"
 
@@ -67,17 +71,36 @@ def _subset(checkout: Path) -> list[str]:
 def real_subset(tmp_path_factory, kicad_pool):
     """A CI-sized subset of the PCBench snapshot built with the packaged recipe (D3-A, B, C
     test boards): {"out": the built set, "summary", "names"}. Shared by the curation and
-    environment tests; skips when the snapshot is absent."""
+    environment tests, and by the pytest-xdist workers of one run (built once, by the first
+    worker that needs it, while the others wait); skips when the snapshot is absent."""
     if not SHARED_PCBENCH.is_file():
         pytest.skip(f"real-corpus tests need the PCBench snapshot at {SHARED_PCBENCH} "
                     f"(absent on this machine)")
+    root = _run_wide_temp(tmp_path_factory) / "pcbench0"
+    root.mkdir(exist_ok=True)
+    with open(root.parent / "pcbench0.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        built = root / "subset.pickle"
+        if not built.is_file():
+            _build_real_subset(root, kicad_pool)
+        return pickle.loads(built.read_bytes())
+
+
+def _run_wide_temp(tmp_path_factory) -> Path:
+    """This run's temp folder: under pytest-xdist, the one all its workers share."""
+    base = tmp_path_factory.getbasetemp()
+    return base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base
+
+
+def _build_real_subset(root: Path, kicad_pool) -> None:
     from pcbdata.curation.build import build
     from pcbdata.spec.recipe import load_recipe
 
-    root = tmp_path_factory.mktemp("pcbench")
-    (root / "full").mkdir()
-    subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(root / "full")], check=True)
     full = root / "full"
+    for leftover in ("full", "subset", "out"):  # of a worker that failed building it
+        shutil.rmtree(root / leftover, ignore_errors=True)
+    full.mkdir()
+    subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(full)], check=True)
     names = _subset(full)
     sub = root / "subset"
     (sub / "PCBs").mkdir(parents=True)
@@ -87,7 +110,8 @@ def real_subset(tmp_path_factory, kicad_pool):
     (sub / "LICENSE").symlink_to(full / "LICENSE")
     out = root / "out"
     summary = build(sub, out, load_recipe(), pool=kicad_pool, log=lambda line: None)
-    return {"out": out, "summary": summary, "names": names}
+    (root / "subset.pickle").write_bytes(
+        pickle.dumps({"out": out, "summary": summary, "names": names}))
 
 
 @pytest.fixture(scope="session")

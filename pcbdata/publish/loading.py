@@ -104,9 +104,10 @@ def _load_split(config: str, split: str, root: str | Path, **kwargs):
 
         return datasets.Dataset(pq.read_table(root / shards[0]))
     if "cache_dir" not in kwargs:
-        # datasets prepares all splits
-        every = [rel for paths in card[config].values() for rel in paths]
-        kwargs["cache_dir"] = str(_cache_dir(root, every, _recorded_hashes(root)))
+        kwargs["cache_dir"] = str(_cache_dir(root, shards, _recorded_hashes(root)))
+    # Only this split's shards: `datasets` would otherwise prepare every split of the config,
+    # and a damaged shard of another split would make this one unreadable.
+    kwargs.setdefault("data_files", {split: list(shards)})
     try:
         return datasets.load_dataset(str(root), config, split=split, **kwargs)
     except Exception:  # noqa: BLE001
