@@ -22,7 +22,7 @@ T = TypeVar("T")
 # SeedSequence (non-negative integers only): 0 .. 2**63 - 1 is what all of them can hold.
 MAX_SEED = 2**63 - 1
 
-FAMILY_KEYS = {"d1": 1, "d2": 2}
+FAMILY_KEYS = {"d1": 1, "d2": 2, "d2r": 3}
 SPLIT_KEYS = {"train": 0, "validation": 1, "test": 2}
 SEED_SCHEME = (
     "numpy SeedSequence(entropy=seed, spawn_key=(family, variant, split, index)) -> PCG64 raw "
