@@ -1,8 +1,8 @@
-"""`pcbdata levels`: the D2 difficulty levels of this version."""
+"""`pcbdata levels`: the D2 difficulty levels and the realistic (D2R) levels of this version."""
 from __future__ import annotations
 
 VERB = "levels"
-HELP = "list the D2 difficulty levels with their parameters"
+HELP = "list the D2 difficulty levels and the D2R realistic levels with their parameters"
 
 
 def register(parser) -> None:
@@ -15,10 +15,16 @@ def run(args) -> int:
 
     from pcbdata.spec.configs import registry
 
-    levels = [spec for spec in registry().values() if spec.family == "d2"]  # in rank order
+    specs = registry().values()
+    levels = [spec for spec in specs if spec.family == "d2"]  # in rank order
+    realistic = [spec for spec in specs if spec.family == "d2r"]
     if args.json:
-        print(json.dumps({spec.level: spec.parameters for spec in levels}, indent=1))
+        table = {spec.level: spec.parameters for spec in levels}
+        table.update({spec.name: spec.parameters for spec in realistic})
+        print(json.dumps(table, indent=1))
         return 0
     for spec in levels:
+        print(f"{spec.rank}  {spec.level:<10} {spec.name:<11} {spec.description}")
+    for spec in realistic:
         print(f"{spec.rank}  {spec.level:<10} {spec.name:<11} {spec.description}")
     return 0

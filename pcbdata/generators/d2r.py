@@ -25,8 +25,10 @@ _ATTEMPTS_PER_PART = 150
 _GROWTH = 1.15  # a board whose parts do not fit is redrawn this much larger
 _RESTARTS = 12
 _RAILS = ("+3V3", "+5V", "+1V8", "+12V")
-_REF_PREFIX = {"sot23": "Q", "soic": "U", "tssop": "U", "qfn": "U", "qfp": "U",
-               "header": "J", "connector": "J"}
+_THT_STYLE = ("axial", "radial", "dip")
+_SMD_STYLE = ("passive", "sot23", "soic", "tssop", "qfn", "qfp")
+_REF_PREFIX = {"sot23": "Q", "soic": "U", "tssop": "U", "dip": "U", "qfn": "U", "qfp": "U",
+               "header": "J", "connector": "J", "axial": "R", "radial": "C"}
 
 
 def _normal(stream: Stream) -> float:
@@ -65,12 +67,15 @@ class D2RGenerator:
         stream = Stream(seed, "d2r", 0, split, index)
         p = self.params
         layers = 4 if stream.random() < p.four_layer_fraction else 2
-        templates = [self._template(stream) for _ in range(self._component_count(stream))]
+        count = self._component_count(stream)
+        mix = self._board_mix(stream)
+        templates = [self._template(stream, mix) for _ in range(count)]
+        pad_target = self._pad_target(stream, count)
         sides = ["B" if not t.through_hole and stream.random() < p.back_side_fraction else "F"
                  for t in templates]
         holes = 4 if stream.random() < p.mounting_hole_fraction else 0
         outline, parts = self._layout(stream, templates, sides, holes, f"{split} {index}")
-        parts = _Nets(stream, p).assign(parts)
+        parts = _Nets(stream, p, pad_target).assign(parts)
         power = tuple(n for n in ("GND", *_RAILS) if _has_net(parts, n))
         board = Board(width=outline.width, height=outline.height, rules=self.rules, pads=[],
                       uuid_seed=f"d2r/{seed}/{split}/{index}", parts=parts, copper_layers=layers,
@@ -90,11 +95,34 @@ class D2RGenerator:
         low, high = p.components_range
         return min(high, max(low, int(round(value))))
 
-    def _template(self, stream: Stream) -> fp.Template:
+    def _pad_target(self, stream: Stream, components: int) -> int:
+        """Terminal pads to aim for: components times a lognormal ratio, within the range."""
         p = self.params
-        kind = _weighted(stream, p.part_mix)
+        ratio = math.exp(math.log(p.pads_per_component_median)
+                         + p.pads_per_component_sigma * _normal(stream))
+        low, high = p.pads_range
+        return min(high, max(low, int(round(components * ratio))))
+
+    def _board_mix(self, stream: Stream) -> dict[str, float]:
+        """The part mix of one board: real boards lean through-hole or SMD as a whole, so the
+        two groups' weights are tilted by one draw per board (`style_spread` 0: no tilt)."""
+        tilt = self.params.style_spread * (2 * stream.random() - 1)
+        factor = {kind: 1 + tilt for kind in _THT_STYLE}
+        factor.update({kind: 1 - tilt for kind in _SMD_STYLE})
+        mix = {k: w * factor.get(k, 1.0) for k, w in self.params.part_mix.items()}
+        return mix if sum(mix.values()) > 0 else dict(self.params.part_mix)
+
+    def _template(self, stream: Stream, mix: dict[str, float]) -> fp.Template:
+        p = self.params
+        kind = _weighted(stream, mix)
         if kind == "passive":
             return fp.passive(_weighted(stream, p.passive_sizes))
+        if kind == "axial":
+            return fp.axial(stream.choice(fp.AXIAL_PITCHES))
+        if kind == "radial":
+            return fp.radial(stream.choice(fp.RADIAL_PITCHES))
+        if kind == "dip":
+            return fp.dip(stream.choice((8, 14, 16, 20, 28)))
         if kind == "sot23":
             return fp.sot23()
         if kind == "soic":
@@ -131,10 +159,11 @@ class D2RGenerator:
             area = 4.0 * template.courtyard[0] * template.courtyard[1]
             for s in (("F", "B") if template.through_hole else (side,)):
                 load[s] += area
-        area = max(load.values()) / stream.uniform(*p.fill_range)
+        low, high = p.fill_range  # log-uniform: real boards span a decade of densities
+        area = max(load.values()) / math.exp(stream.uniform(math.log(low), math.log(high)))
         aspect = stream.uniform(*p.aspect_range)
         biggest = max(2 * max(t.courtyard) for t in templates) + 2 * mm_to_nm(
-            p.edge_clearance_mm + p.mounting_hole_drill_mm + 2)
+            p.edge_clearance_mm)
         width = max(math.sqrt(area * aspect), biggest)
         height = max(area / width, biggest)
         return (width, height) if stream.random() < 0.5 else (height, width)
@@ -174,7 +203,7 @@ class D2RGenerator:
             prefix = _REF_PREFIX.get(template.kind) or ("R" if stream.random() < 0.5 else "C")
             counters[prefix] = counters.get(prefix, 0) + 1
             part = placer.try_place(stream, template, sides[i], _ATTEMPTS_PER_PART,
-                                    f"{prefix}{counters[prefix]}")
+                                    f"{prefix}{counters[prefix]}", p.compactness)
             if part is None:
                 return None
             placed[i] = part
@@ -192,11 +221,13 @@ def _kind(part: Part) -> str:
 
 class _Nets:
     """Net assignment: power pins first (ground and rails on ICs, connectors and decoupling
-    passives), then signal nets grown from a pin to free pins of the nearest other parts."""
+    passives), then signal nets grown from a pin to free pins of the nearest other parts until
+    the board has its target of terminal pads (or no free pin is left)."""
 
-    def __init__(self, stream: Stream, params: D2RParams):
+    def __init__(self, stream: Stream, params: D2RParams, target: int):
         self.stream = stream
         self.p = params
+        self.target = target  # terminal pads: signal nets stop growing once reached
         self.nets: dict[tuple[int, int], str] = {}
 
     def assign(self, parts: list[Part]) -> list[Part]:
@@ -251,12 +282,15 @@ class _Nets:
             order[i], order[j] = order[j], order[i]
         count = 0
         for pin in order:
+            if len(self.nets) >= self.target:
+                return
             if pin in self.nets or pin in skipped:
                 continue
             if self.stream.random() >= self.p.connected_fraction:
                 skipped.add(pin)
                 continue
-            size = int(self.stream.weighted(sizes, weights))
+            size = min(int(self.stream.weighted(sizes, weights)),
+                       max(2, self.target - len(self.nets)))
             members = self._neighbours(pin, size - 1, pins, where, skipped)
             if not members:
                 skipped.add(pin)

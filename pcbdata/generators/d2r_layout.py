@@ -148,20 +148,33 @@ class Placer:
             self.boxes[side].append(box)
 
     def try_place(self, stream: Stream, template: Template, side: str, attempts: int,
-                  ref: str) -> Part | None:
+                  ref: str, candidates: int = 1) -> Part | None:
+        """The part at the best of up to `candidates` free random spots (nearest the board's
+        centre: parts cluster as on real boards, and dense boards fit), or None."""
         sides = ("F", "B") if template.through_hole else (side,)
         o, g = self.outline, self.grid
+        best: tuple[int, int, int, int, Rect] | None = None
+        found = 0
         for _ in range(attempts):
             rotation = 90 * stream.integer(4)
             x = g * stream.integer(max(1, o.width // g))
             y = g * stream.integer(max(1, o.height // g))
             box = footprint_box(x, y, template.courtyard, rotation)
-            if self.fits(box, sides):
-                self.add(box, sides)
-                return Part(ref=ref, name=template.name, x=x, y=y, pads=template.pads,
-                            courtyard=template.courtyard, rotation=rotation,
-                            side="F" if template.through_hole else side)  # type: ignore[arg-type]
-        return None
+            if not self.fits(box, sides):
+                continue
+            score = (2 * x - o.width) ** 2 + (2 * y - o.height) ** 2
+            if best is None or score < best[0]:
+                best = (score, x, y, rotation, box)
+            found += 1
+            if found >= candidates:
+                break
+        if best is None:
+            return None
+        _, x, y, rotation, box = best
+        self.add(box, sides)
+        return Part(ref=ref, name=template.name, x=x, y=y, pads=template.pads,
+                    courtyard=template.courtyard, rotation=rotation,
+                    side="F" if template.through_hole else side)  # type: ignore[arg-type]
 
     def place_hole(self, template: Template, corner: int, ref: str) -> Part | None:
         """A mounting hole in a corner, as close to it as the edges and keepouts allow."""

@@ -14,7 +14,7 @@ from pcbdata.model.board import nm_to_mm
 # hole minimum applies to pad holes too, so via drills stay at or below the smallest.
 SMALLEST_PAD_DRILL_MM = 0.75
 _PROBABILITY_TABLES = ("part_mix", "passive_sizes", "outline_mix", "signal_net_sizes")
-_FRACTIONS = ("back_side_fraction", "four_layer_fraction", "exposed_pad_fraction",
+_FRACTIONS = ("style_spread", "back_side_fraction", "four_layer_fraction", "exposed_pad_fraction",
               "mounting_hole_fraction", "decoupling_fraction", "connected_fraction",
               "two_row_header_fraction")
 _CLASS_LENGTHS = ("clearance_mm", "track_width_mm", "via_diameter_mm", "via_drill_mm")
@@ -22,36 +22,43 @@ _CLASS_LENGTHS = ("clearance_mm", "track_width_mm", "via_diameter_mm", "via_dril
 
 @dataclass(frozen=True)
 class D2RParams:
-    """Every knob of a realistic board; lengths in mm. See docs/realistic.md."""
+    """Every knob of a realistic board; lengths in mm. The defaults are level `b`'s (D3-B);
+    docs/realistic.md explains each."""
 
     components_median: float = 18.0
-    components_sigma: float = 0.6
-    components_range: tuple[int, int] = (2, 150)
+    components_sigma: float = 0.38
+    components_range: tuple[int, int] = (4, 45)
+    pads_per_component_median: float = 3.2
+    pads_per_component_sigma: float = 0.15
+    pads_range: tuple[int, int] = (38, 95)
     part_mix: dict[str, float] = field(default_factory=lambda: {
-        "passive": 0.62, "sot23": 0.06, "soic": 0.05, "tssop": 0.03, "qfn": 0.04, "qfp": 0.02,
-        "header": 0.1, "connector": 0.08})
+        "passive": 0.25, "axial": 0.18, "radial": 0.14, "sot23": 0.05, "soic": 0.05,
+        "tssop": 0.02, "dip": 0.07, "qfn": 0.03, "qfp": 0.03, "header": 0.12,
+        "connector": 0.06})
+    style_spread: float = 1.0
     passive_sizes: dict[str, float] = field(default_factory=lambda: {
-        "0402": 0.2, "0603": 0.4, "0805": 0.3, "1206": 0.1})
+        "0402": 0.15, "0603": 0.35, "0805": 0.3, "1206": 0.2})
     qfn_pitches_mm: tuple[float, ...] = (0.4, 0.5, 0.65)
     qfp_pitches_mm: tuple[float, ...] = (0.4, 0.5, 0.65, 0.8)
     exposed_pad_fraction: float = 0.7
-    header_pins: tuple[int, int] = (2, 10)
+    header_pins: tuple[int, int] = (2, 8)
     two_row_header_fraction: float = 0.25
-    back_side_fraction: float = 0.2
-    four_layer_fraction: float = 0.15
-    fill_range: tuple[float, float] = (0.15, 0.35)
+    back_side_fraction: float = 0.35
+    four_layer_fraction: float = 0.02
+    fill_range: tuple[float, float] = (0.2, 0.9)
     aspect_range: tuple[float, float] = (1.0, 1.8)
     outline_mix: dict[str, float] = field(default_factory=lambda: {
         "rect": 0.5, "rounded": 0.2, "chamfered": 0.1, "l_shape": 0.1, "notch": 0.1})
     corner_mm: tuple[float, float] = (1.0, 4.0)
-    mounting_hole_fraction: float = 0.4
+    mounting_hole_fraction: float = 0.2
     mounting_hole_drill_mm: float = 3.2
     power_rails: tuple[int, ...] = (1, 2)
     decoupling_fraction: float = 0.4
-    connected_fraction: float = 0.75
+    connected_fraction: float = 0.8
     signal_net_sizes: dict[str, float] = field(default_factory=lambda: {
         "2": 0.6, "3": 0.2, "4": 0.1, "5": 0.06, "6": 0.04})
     locality: int = 6
+    compactness: int = 4
     edge_clearance_mm: float = 0.5
     courtyard_gap_mm: float = 0.1
     placement_grid_mm: float = 0.05
@@ -97,12 +104,20 @@ class D2RParams:
         if not low <= self.components_median <= high:
             out.append(f"components_median must lie in components_range, got "
                        f"{self.components_median}")
-        if not 0 <= self.components_sigma <= 3:
-            out.append(f"components_sigma must be from 0 to 3, got {self.components_sigma}")
+        for name in ("components_sigma", "pads_per_component_sigma"):
+            if not 0 <= getattr(self, name) <= 3:
+                out.append(f"{name} must be from 0 to 3, got {getattr(self, name)}")
+        if not 0.5 <= self.pads_per_component_median <= 100:
+            out.append(f"pads_per_component_median must be from 0.5 to 100, got "
+                       f"{self.pads_per_component_median}")
+        low, high = self.pads_range
+        if not 2 <= low <= high <= 100_000:
+            out.append(f"pads_range must be [low, high] with 2 <= low <= high <= 100000, got "
+                       f"{[low, high]}")
         for name in _FRACTIONS:
             if not 0 <= getattr(self, name) <= 1:
                 out.append(f"{name} must be in [0, 1], got {getattr(self, name)}")
-        for name, lo_bound, hi_bound in (("fill_range", 0.01, 0.6), ("aspect_range", 1.0, 5.0),
+        for name, lo_bound, hi_bound in (("fill_range", 0.01, 0.9), ("aspect_range", 1.0, 5.0),
                                          ("corner_mm", 0.1, 20.0)):
             lo, hi = getattr(self, name)
             if not lo_bound <= lo <= hi <= hi_bound:
@@ -115,8 +130,9 @@ class D2RParams:
         if not self.power_rails or min(self.power_rails) < 0 or max(self.power_rails) > 4:
             out.append(f"power_rails must list rail counts from 0 to 4, got "
                        f"{list(self.power_rails)}")
-        if not 1 <= self.locality <= 100:
-            out.append(f"locality must be from 1 to 100, got {self.locality}")
+        for name in ("locality", "compactness"):
+            if not 1 <= getattr(self, name) <= 100:
+                out.append(f"{name} must be from 1 to 100, got {getattr(self, name)}")
         return out
 
     def _tables(self) -> list[str]:
@@ -189,7 +205,9 @@ class D2RParams:
         templates += [fp.qfp(8, p) for p in self.qfp_pitches_mm]
         templates += [fp.passive(s) for s in fp.PASSIVES] + [fp.tssop(8), fp.soic(8)]
         templates += [fp.sot23(), fp.pin_header(2, 2), fp.jst_ph(2), fp.jst_sh(2),
-                      fp.terminal_block(2)]
+                      fp.terminal_block(2), fp.dip(8)]
+        templates += [fp.axial(p) for p in fp.AXIAL_PITCHES]
+        templates += [fp.radial(p) for p in fp.RADIAL_PITCHES]
         return nm_to_mm(min(fp.min_gap(t) for t in templates))
 
     def as_dict(self) -> dict:

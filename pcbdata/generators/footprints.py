@@ -18,7 +18,11 @@ PASSIVES = {"0402": (0.54, 0.64, 1.02), "0603": (0.8, 0.95, 1.65),
 # Fine-pitch packages: pitch -> pad width across the pitch (what keeps the gap between pins).
 QFN_PAD_WIDTH = {0.4: 0.2, 0.5: 0.25, 0.65: 0.35}
 QFP_PAD_WIDTH = {0.4: 0.2, 0.5: 0.28, 0.65: 0.38, 0.8: 0.5}
-KINDS = ("passive", "sot23", "soic", "tssop", "qfn", "qfp", "header", "connector")
+KINDS = ("passive", "axial", "radial", "sot23", "soic", "tssop", "dip", "qfn", "qfp", "header",
+         "connector")
+# Through-hole two-pin parts: axial (resistors, diodes) and radial (capacitors) lead spacings.
+AXIAL_PITCHES = (7.62, 10.16)
+RADIAL_PITCHES = (2.54, 5.08)
 
 
 @dataclass(frozen=True)
@@ -56,6 +60,29 @@ def passive(size: str) -> Template:
     w, h, pitch = PASSIVES[size]
     pads = [_pad(1, -pitch / 2, 0, "roundrect", w, h), _pad(2, pitch / 2, 0, "roundrect", w, h)]
     return _template(f"RC_{size}", "passive", pads)
+
+
+def axial(pitch: float) -> Template:
+    pads = [_pad(1, -pitch / 2, 0, "rect", 1.6, 1.6, 0.8),
+            _pad(2, pitch / 2, 0, "circle", 1.6, 1.6, 0.8)]
+    return _template(f"Axial_P{pitch:g}", "axial", pads)
+
+
+def radial(pitch: float) -> Template:
+    pads = [_pad(1, -pitch / 2, 0, "rect", 1.6, 1.6, 0.8),
+            _pad(2, pitch / 2, 0, "circle", 1.6, 1.6, 0.8)]
+    return _template(f"Radial_P{pitch:g}", "radial", pads)
+
+
+def dip(n: int) -> Template:
+    """A DIP-n: 2.54 mm pitch, rows 7.62 mm apart."""
+    pads = []
+    for pad in _dual_row(n, 2.54, 3.81, 1.6, 1.6):
+        first = pad.number == "1"
+        pads.append(PartPad(number=pad.number, dx=pad.dx, dy=pad.dy,
+                            shape="rect" if first else "circle", width=pad.width,
+                            height=pad.height, drill=mm_to_nm(0.8)))
+    return _template(f"DIP-{n}", "dip", pads)
 
 
 def sot23() -> Template:
