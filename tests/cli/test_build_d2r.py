@@ -1,11 +1,13 @@
-"""`pcbdata build d2r` end to end: the manifest, byte-identical rebuilds, overrides recorded,
-bad `--set` values refused, KiCad's check of the built boards, and `pcbdata levels`."""
+"""`pcbdata build d2r` end to end: the manifest, byte-identical rebuilds, verify, load and the
+card, overrides recorded, bad `--set` values refused, KiCad's check of the built boards, and
+`pcbdata levels`."""
 from __future__ import annotations
 
 import json
 
 import pytest
 
+import pcbdata
 from pcbdata.cli import main
 
 
@@ -32,6 +34,14 @@ def test_build_writes_the_level_and_rebuilds_byte_identically(tmp_path, capsys):
     assert sorted(board["files"]) == ["board.kicad_dru", "board.kicad_pcb", "board.kicad_pro"]
     assert board["n_components"] >= 2 and board["n_layers"] in (2, 4)
     assert board["routing_layers"] == board["n_layers"]
+    assert main(["verify", str(tmp_path / "a")]) == 0
+    assert "3 boards in d2r-a: OK" in capsys.readouterr().out
+    rows = pcbdata.load("d2r-a", split="test", root=str(tmp_path / "a"),
+                        cache_dir=str(tmp_path / "cache"))
+    assert len(rows) == 3 and rows[0]["board_id"] == "board_00000"
+    assert "(footprint" in rows[0]["board"] and rows[0]["n_components"] >= 2
+    card = (tmp_path / "a" / "README.md").read_text()
+    assert "### D2R: realistic synthetic boards" in card and "pictures/d2r-a/" in card
 
 
 def test_overrides_make_a_custom_config_recorded_in_the_manifest(tmp_path):
@@ -71,10 +81,10 @@ def test_unknown_level_suggests_one(tmp_path, capsys):
 
 def test_built_boards_pass_the_kicad_check(tmp_path, capsys):
     out = tmp_path / "set"
-    assert _build(out, "--level", "c", "--count", "2") == 0
-    assert "2 checked in KiCad" in capsys.readouterr().out
+    assert _build(out, "--level", "c", "--count", "1") == 0
+    assert "1 checked in KiCad" in capsys.readouterr().out
     manifest = json.loads((out / "manifest.json").read_text())
-    assert manifest["configs"]["d2r-c"]["splits"]["test"]["kicad_checked"] == 2
+    assert manifest["configs"]["d2r-c"]["splits"]["test"]["kicad_checked"] == 1
 
 
 def test_levels_lists_the_realistic_levels(capsys):
