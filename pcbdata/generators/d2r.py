@@ -9,7 +9,7 @@ enforced by the project and by a rule in the board's `.kicad_dru`; 2 or 4 copper
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 from pcbdata.core.errors import GenerationError
 from pcbdata.core.rng import Stream, check_seed
@@ -22,13 +22,21 @@ from pcbdata.model.board import Board, NetClass, Part, PartPad, Rules, mm_to_nm
 __all__ = ["D2RGenerator", "D2RParams"]
 
 _ATTEMPTS_PER_PART = 150
-_GROWTH = 1.15  # a board whose parts do not fit is redrawn this much larger
-_RESTARTS = 12
+_GROWTH = 1.05  # a board whose parts do not fit is redrawn this much larger
+_RESTARTS = 40
 _RAILS = ("+3V3", "+5V", "+1V8", "+12V")
 _THT_STYLE = ("axial", "radial", "dip")
 _SMD_STYLE = ("passive", "sot23", "soic", "tssop", "qfn", "qfp")
 _REF_PREFIX = {"sot23": "Q", "soic": "U", "tssop": "U", "dip": "U", "qfn": "U", "qfp": "U",
                "header": "J", "connector": "J", "axial": "R", "radial": "C"}
+
+
+@dataclass(frozen=True)
+class _Style:
+    """One board's leaning: its part mix and passive sizes."""
+
+    part_mix: dict[str, float]
+    passive_sizes: dict[str, float]
 
 
 def _normal(stream: Stream) -> float:
@@ -68,9 +76,10 @@ class D2RGenerator:
         p = self.params
         layers = 4 if stream.random() < p.four_layer_fraction else 2
         count = self._component_count(stream)
-        mix = self._board_mix(stream)
-        templates = [self._template(stream, mix) for _ in range(count)]
+        style = _Style(self._board_mix(stream), self._board_passives(stream))
+        templates = [self._template(stream, style) for _ in range(count)]
         pad_target = self._pad_target(stream, count)
+        self._top_up(stream, style, templates, pad_target)
         sides = ["B" if not t.through_hole and stream.random() < p.back_side_fraction else "F"
                  for t in templates]
         holes = 4 if stream.random() < p.mounting_hole_fraction else 0
@@ -112,11 +121,31 @@ class D2RGenerator:
         mix = {k: w * factor.get(k, 1.0) for k, w in self.params.part_mix.items()}
         return mix if sum(mix.values()) > 0 else dict(self.params.part_mix)
 
-    def _template(self, stream: Stream, mix: dict[str, float]) -> fp.Template:
+    def _board_passives(self, stream: Stream) -> dict[str, float]:
+        """The passive sizes of one board: designers keep to one size, so one drawn size takes
+        `passive_size_consistency` of the weight."""
         p = self.params
-        kind = _weighted(stream, mix)
+        main = _weighted(stream, p.passive_sizes)
+        keep = p.passive_size_consistency
+        return {k: (1 - keep) * w + (keep if k == main else 0.0)
+                for k, w in p.passive_sizes.items()}
+
+    def _top_up(self, stream: Stream, style: _Style, templates: list[fp.Template],
+                target: int) -> None:
+        """More parts while their pins cannot give the target of terminal pads (a board of
+        three passives has six pins), within `components_range`."""
+        p = self.params
+        wanted = target / max(p.connected_fraction, 0.5)
+        pins = sum(len(t.pads) for t in templates)
+        while pins < wanted and len(templates) < p.components_range[1]:
+            templates.append(self._template(stream, style))
+            pins += len(templates[-1].pads)
+
+    def _template(self, stream: Stream, style: _Style) -> fp.Template:
+        p = self.params
+        kind = _weighted(stream, style.part_mix)
         if kind == "passive":
-            return fp.passive(_weighted(stream, p.passive_sizes))
+            return fp.passive(_weighted(stream, style.passive_sizes))
         if kind == "axial":
             return fp.axial(stream.choice(fp.AXIAL_PITCHES))
         if kind == "radial":
@@ -162,10 +191,12 @@ class D2RGenerator:
         low, high = p.fill_range  # log-uniform: real boards span a decade of densities
         area = max(load.values()) / math.exp(stream.uniform(math.log(low), math.log(high)))
         aspect = stream.uniform(*p.aspect_range)
-        biggest = max(2 * max(t.courtyard) for t in templates) + 2 * mm_to_nm(
-            p.edge_clearance_mm)
-        width = max(math.sqrt(area * aspect), biggest)
-        height = max(area / width, biggest)
+        # The longest part must fit one way and the widest the other (parts turn).
+        margin = 2 * mm_to_nm(p.edge_clearance_mm)
+        longest = max(2 * max(t.courtyard) for t in templates) + margin
+        widest = max(2 * min(t.courtyard) for t in templates) + margin
+        width = max(math.sqrt(area * aspect), longest)
+        height = max(area / width, widest)
         return (width, height) if stream.random() < 0.5 else (height, width)
 
     def _layout(self, stream: Stream, templates: list[fp.Template], sides: list[str],

@@ -14,9 +14,9 @@ from pcbdata.model.board import nm_to_mm
 # hole minimum applies to pad holes too, so via drills stay at or below the smallest.
 SMALLEST_PAD_DRILL_MM = 0.75
 _PROBABILITY_TABLES = ("part_mix", "passive_sizes", "outline_mix", "signal_net_sizes")
-_FRACTIONS = ("style_spread", "back_side_fraction", "four_layer_fraction", "exposed_pad_fraction",
-              "mounting_hole_fraction", "decoupling_fraction", "connected_fraction",
-              "two_row_header_fraction")
+_FRACTIONS = ("style_spread", "passive_size_consistency", "back_side_fraction",
+              "four_layer_fraction", "exposed_pad_fraction", "mounting_hole_fraction",
+              "decoupling_fraction", "connected_fraction", "two_row_header_fraction")
 _CLASS_LENGTHS = ("clearance_mm", "track_width_mm", "via_diameter_mm", "via_drill_mm")
 
 
@@ -38,6 +38,7 @@ class D2RParams:
     style_spread: float = 1.0
     passive_sizes: dict[str, float] = field(default_factory=lambda: {
         "0402": 0.15, "0603": 0.35, "0805": 0.3, "1206": 0.2})
+    passive_size_consistency: float = 0.8
     qfn_pitches_mm: tuple[float, ...] = (0.4, 0.5, 0.65)
     qfp_pitches_mm: tuple[float, ...] = (0.4, 0.5, 0.65, 0.8)
     exposed_pad_fraction: float = 0.7
@@ -117,7 +118,7 @@ class D2RParams:
         for name in _FRACTIONS:
             if not 0 <= getattr(self, name) <= 1:
                 out.append(f"{name} must be in [0, 1], got {getattr(self, name)}")
-        for name, lo_bound, hi_bound in (("fill_range", 0.01, 0.9), ("aspect_range", 1.0, 5.0),
+        for name, lo_bound, hi_bound in (("fill_range", 0.01, 1.0), ("aspect_range", 1.0, 5.0),
                                          ("corner_mm", 0.1, 20.0)):
             lo, hi = getattr(self, name)
             if not lo_bound <= lo <= hi <= hi_bound:
