@@ -118,7 +118,7 @@ class D2RParams:
         for name in _FRACTIONS:
             if not 0 <= getattr(self, name) <= 1:
                 out.append(f"{name} must be in [0, 1], got {getattr(self, name)}")
-        for name, lo_bound, hi_bound in (("fill_range", 0.01, 1.0), ("aspect_range", 1.0, 5.0),
+        for name, lo_bound, hi_bound in (("fill_range", 0.01, 2.0), ("aspect_range", 1.0, 5.0),
                                          ("corner_mm", 0.1, 20.0)):
             lo, hi = getattr(self, name)
             if not lo_bound <= lo <= hi <= hi_bound:
