@@ -31,6 +31,15 @@ SEED_SCHEME = (
 )
 
 
+def seed_scheme(family: str) -> str:
+    """The manifest's description of a family's streams; D1 and D2 keep the text their
+    released manifests hold."""
+    if family in ("d1", "d2"):
+        return SEED_SCHEME
+    return SEED_SCHEME.replace("family d1=1, d2=2;", "family d1=1, d2=2, d2r=3;").replace(
+        "0 for d2;", "0 for d2 and d2r;")
+
+
 def check_seed(seed, where: str = "seed") -> int:
     """`seed` if the whole pipeline can carry it, else UserError with the range."""
     if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed <= MAX_SEED:

@@ -253,7 +253,8 @@ def _kind(part: Part) -> str:
 class _Nets:
     """Net assignment: power pins first (ground and rails on ICs, connectors and decoupling
     passives), then signal nets grown from a pin to free pins of the nearest other parts until
-    the board has its target of terminal pads (or no free pin is left)."""
+    the board has its target of terminal pads (or no free pin is left), never more than
+    `max_connections` ratsnest edges in all."""
 
     def __init__(self, stream: Stream, params: D2RParams, target: int):
         self.stream = stream
@@ -265,11 +266,23 @@ class _Nets:
         rails = _RAILS[:self.stream.choice(self.p.power_rails)]
         for k, part in enumerate(parts):
             self._power_pins(k, part, rails)
+        self._trim_power()
         self._signals(parts)
         self._drop_lonely()
         return [replace(part, pads=tuple(
             replace(pad, net=self.nets.get((k, j), "")) for j, pad in enumerate(part.pads)))
             for k, part in enumerate(parts)]
+
+    def _connections(self) -> int:
+        """Ratsnest edges so far: pins minus one per net."""
+        return len(self.nets) - len(set(self.nets.values()))
+
+    def _trim_power(self) -> None:
+        """Power pins beyond `max_connections` (a huge board) become unconnected, the last
+        assigned first."""
+        excess = self._connections() - self.p.max_connections
+        for pin in list(self.nets)[::-1][:max(0, excess)]:
+            del self.nets[pin]
 
     def _free(self, k: int, part: Part) -> list[int]:
         return [j for j, pad in enumerate(part.pads)
@@ -312,8 +325,9 @@ class _Nets:
             j = self.stream.integer(i + 1)
             order[i], order[j] = order[j], order[i]
         count = 0
+        budget = self.p.max_connections - self._connections()
         for pin in order:
-            if len(self.nets) >= self.target:
+            if len(self.nets) >= self.target or budget < 1:
                 return
             if pin in self.nets or pin in skipped:
                 continue
@@ -321,12 +335,13 @@ class _Nets:
                 skipped.add(pin)
                 continue
             size = min(int(self.stream.weighted(sizes, weights)),
-                       max(2, self.target - len(self.nets)))
+                       max(2, self.target - len(self.nets)), budget + 1)
             members = self._neighbours(pin, size - 1, pins, where, skipped)
             if not members:
                 skipped.add(pin)
                 continue
             count += 1
+            budget -= len(members)
             for member in [pin, *members]:
                 self.nets[member] = f"N{count}"
 

@@ -13,6 +13,9 @@ from pcbdata.model.board import nm_to_mm
 # Plated holes of the library (headers 1.0, JST PH 0.75, terminal blocks 1.3 mm): a class's
 # hole minimum applies to pad holes too, so via drills stay at or below the smallest.
 SMALLEST_PAD_DRILL_MM = 0.75
+# KiCad 9's DRC report lists at most 499 unconnected items (measured), so the build's check
+# could not confirm a board with more missing connections than that.
+KICAD_MAX_UNCONNECTED = 499
 _PROBABILITY_TABLES = ("part_mix", "passive_sizes", "outline_mix", "signal_net_sizes")
 _FRACTIONS = ("style_spread", "passive_size_consistency", "back_side_fraction",
               "four_layer_fraction", "exposed_pad_fraction", "mounting_hole_fraction",
@@ -59,6 +62,7 @@ class D2RParams:
     signal_net_sizes: dict[str, float] = field(default_factory=lambda: {
         "2": 0.6, "3": 0.2, "4": 0.1, "5": 0.06, "6": 0.04})
     locality: int = 6
+    max_connections: int = KICAD_MAX_UNCONNECTED
     compactness: int = 4
     edge_clearance_mm: float = 0.5
     courtyard_gap_mm: float = 0.1
@@ -131,6 +135,10 @@ class D2RParams:
         if not self.power_rails or min(self.power_rails) < 0 or max(self.power_rails) > 4:
             out.append(f"power_rails must list rail counts from 0 to 4, got "
                        f"{list(self.power_rails)}")
+        if not 1 <= self.max_connections <= KICAD_MAX_UNCONNECTED:
+            out.append(f"max_connections must be from 1 to {KICAD_MAX_UNCONNECTED} (KiCad's DRC "
+                       f"reports at most {KICAD_MAX_UNCONNECTED} unconnected items), got "
+                       f"{self.max_connections}")
         for name in ("locality", "compactness"):
             if not 1 <= getattr(self, name) <= 100:
                 out.append(f"{name} must be from 1 to 100, got {getattr(self, name)}")

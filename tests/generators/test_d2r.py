@@ -26,6 +26,16 @@ SHAPES = {"outline_mix": {"rounded": 0.25, "chamfered": 0.25, "l_shape": 0.25, "
           "mounting_hole_fraction": 1.0, "four_layer_fraction": 0.5, "back_side_fraction": 0.8}
 
 
+# Boards that would have more ratsnest edges than KiCad's DRC report lists (499).
+HUGE = {"components_median": 300.0, "components_sigma": 0.0}
+
+
+def test_no_board_has_more_missing_connections_than_kicads_drc_can_report():
+    assert [b.missing_connections for b in _boards("c", 2, HUGE)] == [499, 499]
+    with pytest.raises(UserError, match="max_connections must be from 1 to 499"):
+        d2r_config("c", {"max_connections": 500})
+
+
 def _boards(level: str, count: int, overrides: dict | None = None) -> list[Board]:
     generator = d2r_config(level, overrides).generator()
     return [generator.generate(0, "test", i).board for i in range(count)]
@@ -169,7 +179,7 @@ def test_bad_parameters_are_rejected_with_the_reason(overrides, message):
 def test_every_level_and_shape_passes_kicads_drc_but_for_unconnected_items(kicad_pool,
                                                                              tmp_path):
     jobs = []
-    samples = [(level, None, 2) for level in LEVELS] + [("a", SHAPES, 4)]
+    samples = [(level, None, 2) for level in LEVELS] + [("a", SHAPES, 4), ("c", HUGE, 1)]
     for level, overrides, count in samples:
         for index, board in enumerate(_boards(level, count, overrides)):
             path = write_board(tmp_path / f"{level}-{overrides is not None}-{index}", board)
