@@ -6,7 +6,10 @@ HELP = "list the D2 difficulty levels and the D2R realistic levels with their pa
 
 
 def register(parser) -> None:
-    parser.add_argument("--json", action="store_true", help="full parameters as JSON")
+    parser.add_argument("--family", choices=("d2", "d2r"), default=None,
+                        help="only this family's levels (with --json: default d2)")
+    parser.add_argument("--json", action="store_true",
+                        help="full parameters as JSON, by level name, of one family")
     parser.set_defaults(run=run)
 
 
@@ -15,16 +18,13 @@ def run(args) -> int:
 
     from pcbdata.spec.configs import registry
 
-    specs = registry().values()
-    levels = [spec for spec in specs if spec.family == "d2"]  # in rank order
-    realistic = [spec for spec in specs if spec.family == "d2r"]
+    families = [args.family] if args.family else ["d2", "d2r"]
     if args.json:
-        table = {spec.level: spec.parameters for spec in levels}
-        table.update({spec.name: spec.parameters for spec in realistic})
-        print(json.dumps(table, indent=1))
+        families = [args.family or "d2"]
+    specs = [spec for spec in registry().values() if spec.family in families]  # rank order
+    if args.json:
+        print(json.dumps({spec.level: spec.parameters for spec in specs}, indent=1))
         return 0
-    for spec in levels:
-        print(f"{spec.rank}  {spec.level:<10} {spec.name:<11} {spec.description}")
-    for spec in realistic:
+    for spec in specs:
         print(f"{spec.rank}  {spec.level:<10} {spec.name:<11} {spec.description}")
     return 0
