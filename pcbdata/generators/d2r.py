@@ -14,7 +14,7 @@ from dataclasses import dataclass, replace
 from pcbdata.core.errors import GenerationError
 from pcbdata.core.rng import Stream, check_seed
 from pcbdata.generators import footprints as fp
-from pcbdata.generators.base import Instance, board_id
+from pcbdata.generators.base import MAX_LENGTH_MM, Instance, board_id
 from pcbdata.generators.d2r_layout import Outline, Placer, make_outline
 from pcbdata.generators.d2r_params import D2RParams
 from pcbdata.model.board import Board, NetClass, Part, PartPad, Rules, mm_to_nm
@@ -208,13 +208,16 @@ class D2RGenerator:
         order = sorted(range(len(templates)), key=lambda i: (
             -templates[i].courtyard[0] * templates[i].courtyard[1], i))
         for _ in range(_RESTARTS):
+            if max(width, height) > mm_to_nm(MAX_LENGTH_MM):
+                break  # KiCad holds coordinates to about 2 m; boards stay within 1 m
             outline = make_outline(stream, shape, int(width), int(height), p.corner_mm)
             parts = self._place(stream, outline, templates, sides, holes, order)
             if parts is not None:
                 return outline, parts
             width, height = width * _GROWTH, height * _GROWTH
-        raise GenerationError(f"d2r board {label}: could not place {len(templates)} parts after "
-                              f"{_RESTARTS} ever larger boards; parameters: {p.as_dict()}")
+        raise GenerationError(f"d2r board {label}: could not place {len(templates)} parts on "
+                              f"boards up to {_RESTARTS} times 5 % larger (or {MAX_LENGTH_MM:g} "
+                              f"mm); parameters: {p.as_dict()}")
 
     def _place(self, stream: Stream, outline: Outline, templates: list[fp.Template],
                sides: list[str], holes: int, order: list[int]) -> list[Part] | None:

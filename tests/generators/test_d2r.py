@@ -36,6 +36,14 @@ def test_no_board_has_more_missing_connections_than_kicads_drc_can_report():
         d2r_config("c", {"max_connections": 500})
 
 
+def test_parts_that_never_fit_are_a_generation_error_not_a_giant_board():
+    from pcbdata.core.errors import GenerationError
+
+    generator = d2r_config("a", {"courtyard_gap_mm": 200.0}).generator()
+    with pytest.raises(GenerationError, match="could not place"):
+        generator.generate(0, "test", 0)
+
+
 def _boards(level: str, count: int, overrides: dict | None = None) -> list[Board]:
     generator = d2r_config(level, overrides).generator()
     return [generator.generate(0, "test", i).board for i in range(count)]
