@@ -135,7 +135,7 @@ class D2RGenerator:
         """More parts while their pins cannot give the target of terminal pads (a board of
         three passives has six pins), within `components_range`."""
         p = self.params
-        wanted = target / max(p.connected_fraction, 0.5)
+        wanted = target * 1.1  # a little slack: not every pin can join a net
         pins = sum(len(t.pads) for t in templates)
         while pins < wanted and len(templates) < p.components_range[1]:
             templates.append(self._template(stream, style))
