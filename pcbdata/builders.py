@@ -19,7 +19,7 @@ from pathlib import Path
 from pcbdata.core.errors import UserError
 from pcbdata.core.fsutil import output_folder
 from pcbdata.executors import Executor, resolve
-from pcbdata.spec.configs import SYNTHETIC_SPLITS, ConfigSpec, d1_config, d2_config
+from pcbdata.spec.configs import SYNTHETIC_SPLITS, ConfigSpec, d1_config, d2_config, d2r_config
 from pcbdata.synthetic.build import (
     BuildSummary,
     ConfigInfo,
@@ -142,6 +142,12 @@ def build_d2(out: str | Path, level: str = "default", overrides: dict | None = N
              options: SyntheticOptions | None = None) -> BuildSummary:
     """D2 at `level`, with parameters overridden (`--set`) if any."""
     return build_configs(out, [d2_config(level, overrides)], options)
+
+
+def build_d2r(out: str | Path, level: str = "b", overrides: dict | None = None,
+              options: SyntheticOptions | None = None) -> BuildSummary:
+    """Realistic boards (D2R) at `level` (a, b, c: one per D3 tier), with `--set` overrides."""
+    return build_configs(out, [d2r_config(level, overrides)], options)
 
 
 def build_d3(source: str | Path, out: str | Path, recipe: str | Path | None = None,

@@ -1,8 +1,8 @@
-"""`pcbdata build <family>`: one module per family (build_d1, build_d2, build_d3, ...)."""
+"""`pcbdata build <family>`: one module per family (build_d1, build_d2, build_d2r, ...)."""
 from __future__ import annotations
 
 VERB = "build"
-HELP = "build a board set (d1, d2 or d3) into a folder"
+HELP = "build a board set (d1, d2, d2r or d3) into a folder"
 
 
 def register(parser) -> None:

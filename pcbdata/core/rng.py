@@ -22,13 +22,22 @@ T = TypeVar("T")
 # SeedSequence (non-negative integers only): 0 .. 2**63 - 1 is what all of them can hold.
 MAX_SEED = 2**63 - 1
 
-FAMILY_KEYS = {"d1": 1, "d2": 2}
+FAMILY_KEYS = {"d1": 1, "d2": 2, "d2r": 3}
 SPLIT_KEYS = {"train": 0, "validation": 1, "test": 2}
 SEED_SCHEME = (
     "numpy SeedSequence(entropy=seed, spawn_key=(family, variant, split, index)) -> PCG64 raw "
     "64-bit outputs; family d1=1, d2=2; variant = grid size for d1, 0 for d2; split train=0, "
     "validation=1, test=2; floats = top 53 bits / 2**53; integers by rejection sampling"
 )
+
+
+def seed_scheme(family: str) -> str:
+    """The manifest's description of a family's streams; D1 and D2 keep the text their
+    released manifests hold."""
+    if family in ("d1", "d2"):
+        return SEED_SCHEME
+    return SEED_SCHEME.replace("family d1=1, d2=2;", "family d1=1, d2=2, d2r=3;").replace(
+        "0 for d2;", "0 for d2 and d2r;")
 
 
 def check_seed(seed, where: str = "seed") -> int:

@@ -18,6 +18,8 @@ CAPACITIES = {
            "max_outline_points": 64, "max_ratsnest": 16},
     "d2": {"max_nets": 32, "max_pads": 128, "max_tracks": 1024, "max_vias": 256,
            "max_outline_points": 64, "max_ratsnest": 128},
+    "d2r": {"max_nets": 1024, "max_pads": 4096, "max_tracks": 4096, "max_vias": 1024,
+            "max_outline_points": 2048, "max_ratsnest": 2048},
     "d3": {"max_nets": 1024, "max_pads": 4096, "max_tracks": 4096, "max_vias": 1024,
            "max_outline_points": 2048, "max_ratsnest": 2048},
 }

@@ -44,9 +44,9 @@ class Instance:
         return {
             "n_nets": len(board.net_names),
             "n_pads": board.n_pads,
-            "n_components": len(board.pads),  # a generated board has one footprint per pad
-            "n_layers": 2,
-            "routing_layers": routing_layers,
+            "n_components": board.n_components,
+            "n_layers": board.copper_layers,
+            "routing_layers": min(routing_layers, board.copper_layers),
             "width_mm": nm_to_mm(board.width),
             "height_mm": nm_to_mm(board.height),
         }

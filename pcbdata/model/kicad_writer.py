@@ -10,7 +10,7 @@ import uuid
 
 from pcbdata.core.textio import canonical_json
 from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE, RULES_FILE
-from pcbdata.model.board import Board, Pad, Rules
+from pcbdata.model.board import Board, EdgeArc, NetClass, Pad, Part, PartPad, Rules
 
 KICAD_PCB_VERSION = 20241229  # the file format KiCad 9.0 writes
 GENERATOR = "pcbdata"
@@ -39,6 +39,19 @@ _LAYERS = """\t(layers
 \t\t(33 "B.Fab" user)
 \t)
 """
+
+
+# Inner copper layers of a four-layer board (KiCad 9 numbers them 4, 6, ...).
+_INNER = '\t\t(2 "B.Cu" signal)\n'
+_INNER_4 = '\t\t(4 "In1.Cu" signal)\n\t\t(6 "In2.Cu" signal)\n' + _INNER
+
+
+def _layer_table(copper_layers: int) -> str:
+    if copper_layers == 2:
+        return _LAYERS
+    if copper_layers == 4:
+        return _LAYERS.replace(_INNER, _INNER_4, 1)
+    raise ValueError(f"boards have 2 or 4 copper layers, not {copper_layers}")
 
 
 def mm(value_nm: int) -> str:
@@ -115,6 +128,93 @@ def _footprint(pad: Pad, ref: str, net_no: int, uuids: _Uuids) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _part_pad_sexpr(part: Part, pad: PartPad, net_no: int, uid: str) -> list[str]:
+    side = part.side
+    dx = -pad.dx if side == "B" else pad.dx  # the file holds a flipped part's own frame flipped
+    angle = f" {part.rotation}" if part.rotation else ""
+    at, size = f"(at {mm(dx)} {mm(pad.dy)}{angle})", f"(size {mm(pad.width)} {mm(pad.height)})"
+    if pad.drill and not pad.plated:
+        head = f'(pad "" np_thru_hole {pad.shape}'
+        body = [at, size, f"(drill {mm(pad.drill)})", '(layers "*.Cu" "*.Mask")']
+    elif pad.drill:
+        head = f'(pad {_quote(pad.number)} thru_hole {pad.shape}'
+        body = [at, size, f"(drill {mm(pad.drill)})", '(layers "*.Cu" "*.Mask")',
+                "(remove_unused_layers no)"]
+    else:
+        head = f'(pad {_quote(pad.number)} smd {pad.shape}'
+        body = [at, size, f'(layers "{side}.Cu" "{side}.Mask" "{side}.Paste")']
+    if pad.shape == "roundrect":
+        body.append(f"(roundrect_rratio {pad.roundrect_ratio:g})")
+    if pad.net:
+        body.append(f"(net {net_no} {_quote(pad.net)})")
+    lines = [f"\t\t\t{b}" for b in body + [f"(uuid {_quote(uid)})"]]
+    return [f"\t\t{head}", *lines, "\t\t)"]
+
+
+def _part_attr(part: Part) -> str:
+    if not any(pad.plated for pad in part.pads):
+        return "\t\t(attr exclude_from_pos_files exclude_from_bom)"
+    return "\t\t(attr through_hole)" if part.through_hole else "\t\t(attr smd)"
+
+
+def _part(part: Part, numbers: dict[str, int], uuids: _Uuids) -> str:
+    side = part.side
+    angle = f" {part.rotation}" if part.rotation else ""
+    lines = [
+        f"\t(footprint {_quote(part.name)}",
+        f'\t\t(layer "{side}.Cu")',
+        f"\t\t(uuid {_quote(uuids.next())})",
+        f"\t\t(at {mm(part.x)} {mm(part.y)}{angle})",
+    ]
+    for prop, value in (("Reference", part.ref), ("Value", part.name)):
+        lines += [
+            f"\t\t(property {_quote(prop)} {_quote(value)}",
+            f"\t\t\t(at 0 0{angle})",
+            f'\t\t\t(layer "{side}.Fab")',
+            "\t\t\t(hide yes)",
+            f"\t\t\t(uuid {_quote(uuids.next())})",
+            "\t\t\t(effects (font (size 1 1) (thickness 0.15))"
+            + (" (justify mirror)" if side == "B" else "") + ")",
+            "\t\t)",
+        ]
+    lines.append(_part_attr(part))
+    half_w, half_h = part.courtyard
+    lines += [
+        "\t\t(fp_rect",
+        f"\t\t\t(start {mm(-half_w)} {mm(-half_h)})",
+        f"\t\t\t(end {mm(half_w)} {mm(half_h)})",
+        "\t\t\t(stroke\n\t\t\t\t(width 0.05)\n\t\t\t\t(type solid)\n\t\t\t)",
+        "\t\t\t(fill no)",
+        f'\t\t\t(layer "{side}.CrtYd")',
+        f"\t\t\t(uuid {_quote(uuids.next())})",
+        "\t\t)",
+    ]
+    for pad in part.pads:
+        lines += _part_pad_sexpr(part, pad, numbers.get(pad.net, 0), uuids.next())
+    lines += ["\t\t(embedded_fonts no)", "\t)"]
+    return "\n".join(lines) + "\n"
+
+
+def _outline(board: Board, uuids: _Uuids) -> str:
+    stroke = "\t\t(stroke\n\t\t\t(width 0.05)\n\t\t\t(type default)\n\t\t)\n"
+    if not board.outline:
+        return ("\t(gr_rect\n"
+                f"\t\t(start 0 0)\n\t\t(end {mm(board.width)} {mm(board.height)})\n"
+                f"{stroke}"
+                '\t\t(fill no)\n\t\t(layer "Edge.Cuts")\n'
+                f"\t\t(uuid {_quote(uuids.next())})\n\t)\n")
+    out = []
+    for edge in board.outline:
+        if isinstance(edge, EdgeArc):
+            head = (f"\t(gr_arc\n\t\t(start {mm(edge.x1)} {mm(edge.y1)})\n"
+                    f"\t\t(mid {mm(edge.xm)} {mm(edge.ym)})\n")
+        else:
+            head = f"\t(gr_line\n\t\t(start {mm(edge.x1)} {mm(edge.y1)})\n"
+        out.append(f"{head}\t\t(end {mm(edge.x2)} {mm(edge.y2)})\n{stroke}"
+                   f'\t\t(layer "Edge.Cuts")\n\t\t(uuid {_quote(uuids.next())})\n\t)\n')
+    return "".join(out)
+
+
 def board_text(board: Board) -> str:
     """The `.kicad_pcb` text of a board."""
     uuids = _Uuids(board.uuid_seed)
@@ -126,7 +226,7 @@ def board_text(board: Board) -> str:
         '\t(generator_version "9.0")\n',
         "\t(general\n\t\t(thickness 1.6)\n\t\t(legacy_teardrops no)\n\t)\n",
         '\t(paper "A4")\n',
-        _LAYERS,
+        _layer_table(board.copper_layers),
         "\t(setup\n\t\t(pad_to_mask_clearance 0)\n"
         "\t\t(allow_soldermask_bridges_in_footprints no)\n\t\t(tenting front back)\n\t)\n",
         '\t(net 0 "")\n',
@@ -134,13 +234,8 @@ def board_text(board: Board) -> str:
     out += [f"\t(net {no} {_quote(name)})\n" for name, no in numbers.items()]
     for i, pad in enumerate(board.pads, start=1):
         out.append(_footprint(pad, f"P{i}", numbers[pad.net], uuids))
-    out.append(
-        "\t(gr_rect\n"
-        f"\t\t(start 0 0)\n\t\t(end {mm(board.width)} {mm(board.height)})\n"
-        "\t\t(stroke\n\t\t\t(width 0.05)\n\t\t\t(type default)\n\t\t)\n"
-        '\t\t(fill no)\n\t\t(layer "Edge.Cuts")\n'
-        f"\t\t(uuid {_quote(uuids.next())})\n\t)\n"
-    )
+    out += [_part(part, numbers, uuids) for part in board.parts]
+    out.append(_outline(board, uuids))
     for t in board.tracks:
         out.append(
             f"\t(segment\n\t\t(start {mm(t.x1)} {mm(t.y1)})\n\t\t(end {mm(t.x2)} {mm(t.y2)})\n"
@@ -185,9 +280,30 @@ def via_floors(rules: Rules) -> tuple[int, int]:
     return rules.via_diameter, rules.via_drill
 
 
-def project_text(rules: Rules, filename: str = PROJECT_FILE) -> str:
-    """The `.kicad_pro` JSON: design rules and the Default netclass; KiCad fills the rest."""
-    as_mm = lambda nm: float(mm(nm))  # noqa: E731
+def _as_mm(nm: int) -> float:
+    return float(mm(nm))
+
+
+def _class_entry(net_class: NetClass, priority: int) -> dict:
+    return {"name": net_class.name, "clearance": _as_mm(net_class.clearance),
+            "track_width": _as_mm(net_class.track_width),
+            "via_diameter": _as_mm(net_class.via_diameter),
+            "via_drill": _as_mm(net_class.via_drill), "priority": priority}
+
+
+def _add_net_classes(project: dict, net_classes: tuple[NetClass, ...]) -> None:
+    """Classes after Default, each net assigned by an exact-name pattern."""
+    settings = project["net_settings"]
+    settings["classes"] += [_class_entry(c, k) for k, c in enumerate(net_classes)]
+    settings["netclass_patterns"] = [{"netclass": c.name, "pattern": net}
+                                     for c in net_classes for net in c.nets]
+
+
+def project_text(rules: Rules, filename: str = PROJECT_FILE,
+                 net_classes: tuple[NetClass, ...] = ()) -> str:
+    """The `.kicad_pro` JSON: design rules and the Default netclass (and `net_classes` with
+    their nets); KiCad fills the rest."""
+    as_mm = _as_mm
     via_floor, hole_floor = via_floors(rules)
     project = {
         "board": {
@@ -216,15 +332,31 @@ def project_text(rules: Rules, filename: str = PROJECT_FILE) -> str:
             "meta": {"version": 4},
         },
     }
+    if net_classes:
+        _add_net_classes(project, net_classes)
     return canonical_json(project, indent=2)
 
 
-def custom_rules_text(rules: Rules) -> str | None:
+def _class_rule(net_class: NetClass) -> str:
+    """A net class's own minima as a DRC rule: the project's board minima are the finest
+    class's, so without it a track of a wider class could shrink to them unflagged."""
+    return (f'(rule "netclass {net_class.name}"\n'
+            f"\t(condition \"A.NetClass == '{net_class.name}'\")\n"
+            f"\t(constraint clearance (min {mm(net_class.clearance)}mm))\n"
+            f"\t(constraint track_width (min {mm(net_class.track_width)}mm))\n"
+            f"\t(constraint via_diameter (min {mm(net_class.via_diameter)}mm))\n"
+            f"\t(constraint hole_size (min {mm(net_class.via_drill)}mm)))\n")
+
+
+def custom_rules_text(rules: Rules, net_classes: tuple[NetClass, ...] = ()) -> str | None:
     """The `.kicad_dru` custom rules, or None when the board needs none.
 
     The one-layer routing of D1 is a DRC rule, not a convention, so that any router's output
-    that uses the other copper layer (tracks or vias) is flagged by KiCad itself.
+    that uses the other copper layer (tracks or vias) is flagged by KiCad itself. Net classes
+    (realistic boards) get one rule each.
     """
+    if net_classes:
+        return "(version 1)\n" + "".join(_class_rule(c) for c in net_classes)
     if rules.single_layer is None:
         return None
     other = "B.Cu" if rules.single_layer == "F.Cu" else "F.Cu"
@@ -238,8 +370,9 @@ def custom_rules_text(rules: Rules) -> str | None:
 
 def board_files(board: Board) -> dict[str, str]:
     """File name -> text for every file of one board directory."""
-    files = {BOARD_FILE: board_text(board), PROJECT_FILE: project_text(board.rules)}
-    dru = custom_rules_text(board.rules)
+    files = {BOARD_FILE: board_text(board),
+             PROJECT_FILE: project_text(board.rules, net_classes=board.net_classes)}
+    dru = custom_rules_text(board.rules, board.net_classes)
     if dru is not None:
         files[RULES_FILE] = dru
     return files

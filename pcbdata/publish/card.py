@@ -41,6 +41,17 @@ _FAMILY_TEXT = {
            "0.6 mm lattice inside the central 90 % of the board and at least 4.8 mm apart. "
            "Clearance and track width 0.3 mm, vias 1.2/0.6 mm. Other difficulty levels "
            "(`d2-<level>`) change these knobs; each config records its full parameter set."),
+    "d2r": ("D2R: realistic synthetic boards",
+            "Boards that look like the real ones of D3, one level per D3 tier (`d2r-a`, "
+            "`d2r-b`, `d2r-c`): multi-pad parts from a parametric footprint library (SMD and "
+            "through-hole passives, SOT-23, SOIC/TSSOP, DIP, QFN/QFP at 0.4-0.8 mm pitch, "
+            "2.54 mm pin headers, connectors) on both sides, turned in 90-degree steps, "
+            "courtyards never overlapping; power nets on many pins, signal nets joining nearby "
+            "parts, unconnected pins; a `Power` net class with its own clearance, track and "
+            "via, held by the project and by a rule in `board.kicad_dru`; 2 or 4 copper "
+            "layers; rectangular, rounded, chamfered, L-shaped and notched outlines with "
+            "mounting holes. Component and pad counts follow lognormal draws calibrated to the "
+            "tier; no real board is copied. Each config records its full parameter set."),
 }
 
 
@@ -310,7 +321,7 @@ def _how_made(manifest: dict, configs: list[str], families: list[str]) -> list[s
             cfg = manifest["configs"][config]
             if cfg.get("family") == family:
                 out += [_config_line(config, cfg), ""]
-    if {"d1", "d2"} & set(families):
+    if {"d1", "d2", "d2r"} & set(families):
         out += ["Same parameters and seed give byte-identical boards. Every generated board "
                 "loads in KiCad and passes its DRC with no violation other than the unconnected "
                 "items routing resolves.", ""]

@@ -7,7 +7,9 @@ place that makes config names and reads them back; the CLI and the build library
 it.
 
 Names: `d1-g<grid>` (`-<placement>` unless uniform), `d2` (the benchmark level), `d2-<level>`,
-`d2-<level>-custom-<hash>` (a level with `--set` overrides; hash of the parameters), `d3-<tier>`.
+`d2-<level>-custom-<hash>` (a level with `--set` overrides; hash of the parameters),
+`d2r-<level>` and `d2r-<level>-custom-<hash>` (realistic boards, one level per D3 tier),
+`d3-<tier>`.
 
 Seed coupling, stated once: every synthetic board draws from its own stream
 `SeedSequence(entropy=seed, spawn_key=(family, variant, split, index))` (`pcbdata.core.rng`). D1's
@@ -37,6 +39,8 @@ SEED_COUPLING = {
     "d1": "one stream per (grid, split, index); grids independent",
     "d2": "one stream per (split, index) shared by every level (variant 0): levels are paired "
           "board by board",
+    "d2r": "one stream per (split, index) shared by every level (variant 0), disjoint from "
+           "D2's (family key 3): levels are paired board by board",
     "d3": "no random draws: boards come from the PCBench snapshot and the recipe",
 }
 _D1_NAME = re.compile(r"d1-g(?P<grid>\d+)(?:-(?P<placement>.+))?")
@@ -70,7 +74,7 @@ class ConfigSpec:
 
     @property
     def synthetic(self) -> bool:
-        return self.family in ("d1", "d2")
+        return self.family in ("d1", "d2", "d2r")
 
     def generator(self) -> Generator:
         """The generator of a synthetic config (D1, D2), from its parameters; D3 has none
@@ -86,6 +90,10 @@ class ConfigSpec:
             from pcbdata.generators import D2Generator, D2Params
 
             return D2Generator(D2Params.from_dict(self.parameters, f"config {self.name}"))
+        if self.family == "d2r":
+            from pcbdata.generators import D2RGenerator, D2RParams
+
+            return D2RGenerator(D2RParams.from_dict(self.parameters, f"config {self.name}"))
         raise UserError(f"config {self.name!r}: D3 boards are curated, not generated "
                         f"(build them with `pcbdata build d3`)")
 
@@ -102,6 +110,14 @@ def d2_name(level: str, parameters: dict | None = None) -> str:
         return base
     digest = sha256_text(json.dumps(parameters, sort_keys=True))
     return f"{base}-custom-{digest[:8]}"
+
+
+def d2r_name(level: str, parameters: dict | None = None) -> str:
+    """`d2r-<level>`; with `parameters` (a level with overrides) the hash of the full set."""
+    base = f"d2r-{level}"
+    if parameters is None:
+        return base
+    return f"{base}-custom-{sha256_text(json.dumps(parameters, sort_keys=True))[:8]}"
 
 
 def d1_config(grid: int, placement: str | None = None) -> ConfigSpec:
@@ -133,6 +149,20 @@ def d2_config(level: str = "default", overrides: dict | None = None) -> ConfigSp
                                 "overrides": lv.overrides})
 
 
+def d2r_config(level: str = "b", overrides: dict | None = None) -> ConfigSpec:
+    """The realistic config of a level (one per D3 tier), with `--set` overrides if any."""
+    from pcbdata.spec.presets import d2r_level
+
+    lv = d2r_level(level, overrides)
+    parameters = lv.params.as_dict()
+    return ConfigSpec(name=d2r_name(lv.name, parameters if lv.overrides else None),
+                      family="d2r", version=lv.version, splits=SYNTHETIC_SPLITS, seed=lv.seed,
+                      level=lv.name, rank=lv.rank, tier=lv.tier, description=lv.description,
+                      parameters=parameters, sizes=dict(lv.splits),
+                      manifest={"level": lv.name, "level_description": lv.description,
+                                "overrides": lv.overrides})
+
+
 def _d3_configs() -> list[ConfigSpec]:
     from dataclasses import asdict
 
@@ -150,12 +180,16 @@ def _d3_configs() -> list[ConfigSpec]:
 
 
 def registry() -> dict[str, ConfigSpec]:
-    """Every named config: D1 at the preset's grids (uniform), D2 at every level, D3 tiers."""
-    from pcbdata.spec.presets import d1_preset, d2_levels
+    """Every named config: D1 at the preset's grids (uniform), D2 at every level, the realistic
+    levels (D2R), D3 tiers."""
+    from pcbdata.spec.presets import d1_preset, d2_levels, d2r_levels
 
     specs = [d1_config(grid) for grid in d1_preset().grid_sizes]
     levels = d2_levels()
     specs += [d2_config(name) for name in sorted(levels, key=lambda n: levels[n]["rank"])]
+    realistic = d2r_levels()
+    specs += [d2r_config(name)
+              for name in sorted(realistic, key=lambda n: realistic[n]["rank"])]
     specs += _d3_configs()
     return {spec.name: spec for spec in specs}
 
@@ -178,6 +212,8 @@ def family_of(name: str) -> str | None:
     """The family a config name belongs to (None for a name of no family)."""
     if _D1_NAME.fullmatch(name):
         return "d1"
+    if name.startswith("d2r-"):
+        return "d2r"
     if name == "d2" or name.startswith("d2-"):
         return "d2"
     if name in D3_TIERS.values() or name.startswith("d3"):
@@ -191,6 +227,8 @@ def order_key(name: str) -> tuple:
     family = family_of(name)
     if family == "d2":
         return (0, 0 if name == "d2" else 1, "", name)
+    if family == "d2r":
+        return (0, 2, "", name)
     if family == "d1":
         match = _D1_NAME.fullmatch(name)
         assert match is not None

@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pcbdata.core.errors import UserError
 from pcbdata.core.rng import check_seed
 from pcbdata.generators.d2 import D2Params
+from pcbdata.generators.d2r_params import D2RParams
 from pcbdata.resources import resource_path
 
 
@@ -70,6 +71,48 @@ def d2_level(name: str, overrides: dict | None = None) -> D2Level:
                    params=params, version=levels[name].get("version", data["version"]),
                    seed=check_seed(data["seed"], "pcbdata/resources/presets/d2_levels.toml seed"),
                    splits=dict(data["splits"]), overrides=dict(overrides or {}))
+
+
+@dataclass(frozen=True)
+class D2RLevel:
+    name: str
+    rank: int
+    tier: str
+    description: str
+    params: D2RParams
+    version: str
+    seed: int
+    splits: dict[str, int]
+    overrides: dict
+
+
+_D2R_FILE = "d2r_levels.toml"
+_D2R_META = ("rank", "tier", "description", "version")
+
+
+def d2r_levels() -> dict[str, dict]:
+    return dict(_load(_D2R_FILE)["levels"])
+
+
+def d2r_level(name: str, overrides: dict | None = None) -> D2RLevel:
+    """A realistic level (one per D3 tier), with `--set` overrides if any."""
+    data = _load(_D2R_FILE)
+    levels = data["levels"]
+    if name not in levels:
+        close = difflib.get_close_matches(name, list(levels), n=1, cutoff=0.3)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        ranked = sorted(levels, key=lambda n: levels[n]["rank"])
+        raise UserError(f"unknown d2r level {name!r}{hint} (levels: {', '.join(ranked)})")
+    entry = levels[name]
+    spec = {k: v for k, v in entry.items() if k not in _D2R_META}
+    where = f"pcbdata/resources/presets/{_D2R_FILE} level {name!r}"
+    D2RParams.from_dict(spec, where)  # the preset alone must be valid
+    params = D2RParams.from_dict({**spec, **(overrides or {})}, "--set" if overrides else where)
+    return D2RLevel(name=name, rank=entry["rank"], tier=entry["tier"],
+                    description=entry["description"], params=params,
+                    version=entry.get("version", data["version"]),
+                    seed=check_seed(data["seed"], f"pcbdata/resources/presets/{_D2R_FILE} seed"),
+                    splits=dict(data["splits"]), overrides=dict(overrides or {}))
 
 
 def parse_overrides(texts: list[str]) -> dict:

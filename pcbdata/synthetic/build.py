@@ -26,7 +26,7 @@ from pcbdata.core.fsutil import (
     write_dir_atomic,
 )
 from pcbdata.core.hashing import sha256_bytes
-from pcbdata.core.rng import SEED_SCHEME
+from pcbdata.core.rng import seed_scheme
 from pcbdata.core.tree import (
     BOARD_FILE,
     MANIFEST_NAME,
@@ -383,7 +383,7 @@ def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigI
         info = configs[job.config]
         config = built.setdefault(job.config, {
             "family": info.family, "set_version": info.set_version, "seed": info.seed,
-            "seed_scheme": SEED_SCHEME, "parameters": info.parameters, **info.extra,
+            "seed_scheme": seed_scheme(info.family), "parameters": info.parameters, **info.extra,
             "splits": {},
         })
         boards = {}

@@ -58,8 +58,8 @@ def test_help_of_every_verb_and_build_family_works_without_kicad(no_kicad_env):
     assert result.returncode == 0, result.stderr
     results = json.loads(result.stdout)
     assert results.pop("pcbnew imported") is False
-    expected = {"pcbdata", "build", "build d1", "build d2", "build d3", "eval", "levels",
-                "materialize", "publish", "push", "route", "verify"}
+    expected = {"pcbdata", "build", "build d1", "build d2", "build d2r", "build d3", "eval",
+                "levels", "materialize", "publish", "push", "route", "verify"}
     assert expected <= set(results), sorted(results)
     for command, (code, text) in results.items():
         assert code == 0 and text.startswith("usage: "), (command, code, text[:200])

@@ -24,12 +24,15 @@ def test_one_id_per_config():
 @pytest.mark.parametrize("ident", IDS)
 def test_check_env_passes(ident, request):
     """gymnasium's check_env (spaces, reset/step contracts, seeded determinism of reset and
-    step) on every registered id. D1/D2: boards from the generator (no set needed);
+    step) on every registered id. D1/D2/D2R: boards from the generator (no set needed; D2R
+    with KiCad's DRC at the end);
     D3: the `d3_set` fixture (PCBDATA_D3_SET, else the real subset built from the PCBench
     snapshot), with KiCad's DRC at the end (a real board's DRC after every step is the slow
     part, and the contracts do not depend on when it runs), then 100 random steps on the
     tier's smallest test board."""
-    options = {}
+    options: dict = {}
+    if "-d2r-" in ident:
+        options = {"drc": "terminal"}  # realistic boards: hundreds of pads, DRC at the end
     if "-d3-" in ident:
         options = {"root": str(_d3_root(ident, request.getfixturevalue("d3_set"))),
                    "drc": "terminal"}

@@ -1,0 +1,381 @@
+"""D2R: realistic synthetic boards, calibrated to the D3 tiers (SPEC section 2b).
+
+Multi-pad parts from a parametric footprint library (`footprints`), placed on both sides at 0,
+90, 180 or 270 degrees with disjoint courtyards, inside rectangular or shaped outlines with
+mounting holes (`d2r_layout`); power nets touching many pins, signal nets joining pins of
+nearby parts, unconnected pins; a `Power` net class with its own clearance, track and via,
+enforced by the project and by a rule in the board's `.kicad_dru`; 2 or 4 copper layers.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+from pcbdata.core.errors import GenerationError
+from pcbdata.core.rng import Stream, check_seed
+from pcbdata.generators import footprints as fp
+from pcbdata.generators.base import MAX_LENGTH_MM, Instance, board_id
+from pcbdata.generators.d2r_layout import Outline, Placer, make_outline
+from pcbdata.generators.d2r_params import D2RParams
+from pcbdata.model.board import Board, NetClass, Part, PartPad, Rules, mm_to_nm
+
+__all__ = ["D2RGenerator", "D2RParams"]
+
+_ATTEMPTS_PER_PART = 150
+_GROWTH = 1.05  # a board whose parts do not fit is redrawn this much larger
+_RESTARTS = 40
+_RAILS = ("+3V3", "+5V", "+1V8", "+12V")
+_THT_STYLE = ("axial", "radial", "dip")
+_SMD_STYLE = ("passive", "sot23", "soic", "tssop", "qfn", "qfp")
+_REF_PREFIX = {"sot23": "Q", "soic": "U", "tssop": "U", "dip": "U", "qfn": "U", "qfp": "U",
+               "header": "J", "connector": "J", "axial": "R", "radial": "C"}
+
+
+@dataclass(frozen=True)
+class _Style:
+    """One board's leaning: its part mix and passive sizes."""
+
+    part_mix: dict[str, float]
+    passive_sizes: dict[str, float]
+
+
+def _normal(stream: Stream) -> float:
+    """A standard normal draw (Box-Muller) from two uniform draws."""
+    u1, u2 = stream.random(), stream.random()
+    return math.sqrt(-2.0 * math.log(1.0 - u1)) * math.cos(2.0 * math.pi * u2)
+
+
+def _weighted(stream: Stream, table: dict[str, float]) -> str:
+    keys = sorted(table)
+    return stream.weighted(keys, [table[k] for k in keys])
+
+
+class D2RGenerator:
+    """Realistic boards. Guarantee (besides `Generator`'s): courtyards of one side never
+    overlap, and a through-hole part's or mounting hole's courtyard overlaps no other; every
+    courtyard lies `edge_clearance_mm` inside the outline; copper of different nets is at least
+    the larger of their classes' clearances apart (the library's pad gaps are checked against
+    it when the parameters are made); each net of the `Power` class is listed in the project's
+    netclass patterns and ruled in the `.kicad_dru`."""
+
+    family = "d2r"
+    routing_layers = 4
+
+    def __init__(self, params: D2RParams | None = None):
+        self.params = params or D2RParams()
+        p = self.params
+        self.rules = Rules(clearance=mm_to_nm(p.clearance_mm),
+                           track_width=mm_to_nm(p.track_width_mm),
+                           edge_clearance=mm_to_nm(p.edge_clearance_mm),
+                           via_diameter=mm_to_nm(p.via_diameter_mm),
+                           via_drill=mm_to_nm(p.via_drill_mm))
+
+    def generate(self, seed: int, split: str, index: int) -> Instance:
+        check_seed(seed)
+        stream = Stream(seed, "d2r", 0, split, index)
+        p = self.params
+        layers = 4 if stream.random() < p.four_layer_fraction else 2
+        count = self._component_count(stream)
+        style = _Style(self._board_mix(stream), self._board_passives(stream))
+        templates = [self._template(stream, style) for _ in range(count)]
+        pad_target = self._pad_target(stream, count)
+        self._top_up(stream, style, templates, pad_target)
+        sides = ["B" if not t.through_hole and stream.random() < p.back_side_fraction else "F"
+                 for t in templates]
+        holes = 4 if stream.random() < p.mounting_hole_fraction else 0
+        outline, parts = self._layout(stream, templates, sides, holes, f"{split} {index}")
+        parts = _Nets(stream, p, pad_target).assign(parts)
+        power = tuple(n for n in ("GND", *_RAILS) if _has_net(parts, n))
+        board = Board(width=outline.width, height=outline.height, rules=self.rules, pads=[],
+                      uuid_seed=f"d2r/{seed}/{split}/{index}", parts=parts, copper_layers=layers,
+                      outline=outline.edges, net_classes=(self._power_class(power),))
+        return Instance(board_id=board_id(index), board=board)
+
+    def _power_class(self, nets: tuple[str, ...]) -> NetClass:
+        p = self.params
+        return NetClass("Power", clearance=mm_to_nm(p.power_clearance_mm),
+                        track_width=mm_to_nm(p.power_track_width_mm),
+                        via_diameter=mm_to_nm(p.power_via_diameter_mm),
+                        via_drill=mm_to_nm(p.power_via_drill_mm), nets=nets)
+
+    def _component_count(self, stream: Stream) -> int:
+        p = self.params
+        value = math.exp(math.log(p.components_median) + p.components_sigma * _normal(stream))
+        low, high = p.components_range
+        return min(high, max(low, int(round(value))))
+
+    def _pad_target(self, stream: Stream, components: int) -> int:
+        """Terminal pads to aim for: components times a lognormal ratio, within the range."""
+        p = self.params
+        ratio = math.exp(math.log(p.pads_per_component_median)
+                         + p.pads_per_component_sigma * _normal(stream))
+        low, high = p.pads_range
+        return min(high, max(low, int(round(components * ratio))))
+
+    def _board_mix(self, stream: Stream) -> dict[str, float]:
+        """The part mix of one board: real boards lean through-hole or SMD as a whole, so the
+        two groups' weights are tilted by one draw per board (`style_spread` 0: no tilt)."""
+        tilt = self.params.style_spread * (2 * stream.random() - 1)
+        factor = {kind: 1 + tilt for kind in _THT_STYLE}
+        factor.update({kind: 1 - tilt for kind in _SMD_STYLE})
+        mix = {k: w * factor.get(k, 1.0) for k, w in self.params.part_mix.items()}
+        return mix if sum(mix.values()) > 0 else dict(self.params.part_mix)
+
+    def _board_passives(self, stream: Stream) -> dict[str, float]:
+        """The passive sizes of one board: designers keep to one size, so one drawn size takes
+        `passive_size_consistency` of the weight."""
+        p = self.params
+        main = _weighted(stream, p.passive_sizes)
+        keep = p.passive_size_consistency
+        return {k: (1 - keep) * w + (keep if k == main else 0.0)
+                for k, w in p.passive_sizes.items()}
+
+    def _top_up(self, stream: Stream, style: _Style, templates: list[fp.Template],
+                target: int) -> None:
+        """More parts while their pins cannot give the target of terminal pads (a board of
+        three passives has six pins), within `components_range`."""
+        p = self.params
+        wanted = target * 1.1  # a little slack: not every pin can join a net
+        pins = sum(len(t.pads) for t in templates)
+        while pins < wanted and len(templates) < p.components_range[1]:
+            templates.append(self._template(stream, style))
+            pins += len(templates[-1].pads)
+
+    def _template(self, stream: Stream, style: _Style) -> fp.Template:
+        p = self.params
+        kind = _weighted(stream, style.part_mix)
+        if kind == "passive":
+            return fp.passive(_weighted(stream, style.passive_sizes))
+        if kind == "axial":
+            return fp.axial(stream.choice(fp.AXIAL_PITCHES))
+        if kind == "radial":
+            return fp.radial(stream.choice(fp.RADIAL_PITCHES))
+        if kind == "dip":
+            return fp.dip(stream.choice((8, 14, 16, 20, 28)))
+        if kind == "sot23":
+            return fp.sot23()
+        if kind == "soic":
+            return fp.soic(stream.choice((8, 14, 16)))
+        if kind == "tssop":
+            return fp.tssop(stream.choice((8, 14, 16, 20, 24)))
+        if kind == "qfn":
+            return fp.qfn(stream.choice((4, 5, 6, 8)), stream.choice(p.qfn_pitches_mm),
+                          stream.random() < p.exposed_pad_fraction)
+        if kind == "qfp":
+            return fp.qfp(stream.choice((8, 11, 12, 16)), stream.choice(p.qfp_pitches_mm))
+        if kind == "header":
+            rows = 2 if stream.random() < p.two_row_header_fraction else 1
+            low, high = p.header_pins
+            pins = low + stream.integer(high - low + 1)
+            return fp.pin_header(rows, max(1, pins // rows))
+        return self._connector(stream)
+
+    @staticmethod
+    def _connector(stream: Stream) -> fp.Template:
+        which = stream.integer(3)
+        if which == 0:
+            return fp.jst_ph(2 + stream.integer(5))
+        if which == 1:
+            return fp.jst_sh(2 + stream.integer(7))
+        return fp.terminal_block(2 + stream.integer(3))
+
+    def _board_size(self, stream: Stream, templates: list[fp.Template],
+                    sides: list[str]) -> tuple[float, float]:
+        """Width and height (nm) from the courtyard area the busier side must hold."""
+        p = self.params
+        load = {"F": 0.0, "B": 0.0}
+        for template, side in zip(templates, sides):
+            area = 4.0 * template.courtyard[0] * template.courtyard[1]
+            for s in (("F", "B") if template.through_hole else (side,)):
+                load[s] += area
+        low, high = p.fill_range  # log-uniform: real boards span a decade of densities
+        area = max(load.values()) / math.exp(stream.uniform(math.log(low), math.log(high)))
+        aspect = stream.uniform(*p.aspect_range)
+        # The longest part must fit one way and the widest the other (parts turn).
+        margin = 2 * mm_to_nm(p.edge_clearance_mm)
+        longest = max(2 * max(t.courtyard) for t in templates) + margin
+        widest = max(2 * min(t.courtyard) for t in templates) + margin
+        width = max(math.sqrt(area * aspect), longest)
+        height = max(area / width, widest)
+        return (width, height) if stream.random() < 0.5 else (height, width)
+
+    def _layout(self, stream: Stream, templates: list[fp.Template], sides: list[str],
+                holes: int, label: str) -> tuple[Outline, list[Part]]:
+        p = self.params
+        width, height = self._board_size(stream, templates, sides)
+        shape = _weighted(stream, p.outline_mix)
+        # Big parts first: small ones fill the gaps left between them.
+        order = sorted(range(len(templates)), key=lambda i: (
+            -templates[i].courtyard[0] * templates[i].courtyard[1], i))
+        for _ in range(_RESTARTS):
+            if max(width, height) > mm_to_nm(MAX_LENGTH_MM):
+                break  # KiCad holds coordinates to about 2 m; boards stay within 1 m
+            outline = make_outline(stream, shape, int(width), int(height), p.corner_mm)
+            parts = self._place(stream, outline, templates, sides, holes, order)
+            if parts is not None:
+                return outline, parts
+            width, height = width * _GROWTH, height * _GROWTH
+        raise GenerationError(f"d2r board {label}: could not place {len(templates)} parts on "
+                              f"boards up to {_RESTARTS} times 5 % larger (or {MAX_LENGTH_MM:g} "
+                              f"mm); parameters: {p.as_dict()}")
+
+    def _place(self, stream: Stream, outline: Outline, templates: list[fp.Template],
+               sides: list[str], holes: int, order: list[int]) -> list[Part] | None:
+        p = self.params
+        placer = Placer(outline, mm_to_nm(p.edge_clearance_mm), mm_to_nm(p.courtyard_gap_mm),
+                        mm_to_nm(p.placement_grid_mm))
+        hole = fp.mounting_hole(p.mounting_hole_drill_mm)
+        parts: list[Part] = []
+        for corner in range(holes):
+            placed_hole = placer.place_hole(hole, corner, f"H{len(parts) + 1}")
+            if placed_hole is not None:
+                parts.append(placed_hole)
+        counters: dict[str, int] = {}
+        placed: dict[int, Part] = {}
+        for i in order:
+            template = templates[i]
+            prefix = _REF_PREFIX.get(template.kind) or ("R" if stream.random() < 0.5 else "C")
+            counters[prefix] = counters.get(prefix, 0) + 1
+            part = placer.try_place(stream, template, sides[i], _ATTEMPTS_PER_PART,
+                                    f"{prefix}{counters[prefix]}", p.compactness)
+            if part is None:
+                return None
+            placed[i] = part
+        return parts + [placed[i] for i in range(len(templates))]
+
+
+def _has_net(parts: list[Part], net: str) -> bool:
+    return any(pad.net == net for part in parts for pad in part.pads)
+
+
+def _kind(part: Part) -> str:
+    head = part.ref.rstrip("0123456789")
+    return {"U": "ic", "Q": "ic", "J": "connector", "H": "hole"}.get(head, "passive")
+
+
+class _Nets:
+    """Net assignment: power pins first (ground and rails on ICs, connectors and decoupling
+    passives), then signal nets grown from a pin to free pins of the nearest other parts until
+    the board has its target of terminal pads (or no free pin is left), never more than
+    `max_connections` ratsnest edges in all."""
+
+    def __init__(self, stream: Stream, params: D2RParams, target: int):
+        self.stream = stream
+        self.p = params
+        self.target = target  # terminal pads: signal nets stop growing once reached
+        self.nets: dict[tuple[int, int], str] = {}
+
+    def assign(self, parts: list[Part]) -> list[Part]:
+        rails = _RAILS[:self.stream.choice(self.p.power_rails)]
+        for k, part in enumerate(parts):
+            self._power_pins(k, part, rails)
+        self._trim_power()
+        self._signals(parts)
+        self._drop_lonely()
+        return [replace(part, pads=tuple(
+            replace(pad, net=self.nets.get((k, j), "")) for j, pad in enumerate(part.pads)))
+            for k, part in enumerate(parts)]
+
+    def _connections(self) -> int:
+        """Ratsnest edges so far: pins minus one per net."""
+        return len(self.nets) - len(set(self.nets.values()))
+
+    def _trim_power(self) -> None:
+        """Power pins beyond `max_connections` (a huge board) become unconnected, the last
+        assigned first."""
+        excess = self._connections() - self.p.max_connections
+        for pin in list(self.nets)[::-1][:max(0, excess)]:
+            del self.nets[pin]
+
+    def _free(self, k: int, part: Part) -> list[int]:
+        return [j for j, pad in enumerate(part.pads)
+                if (k, j) not in self.nets and pad.plated and pad.number != "MP"]
+
+    def _power_pins(self, k: int, part: Part, rails: tuple[str, ...]) -> None:
+        kind = _kind(part)
+        free = self._free(k, part)
+        if kind == "ic":
+            exposed = [j for j in free if part.pads[j].shape == "rect" and len(free) > 4]
+            for j in exposed:
+                self.nets[(k, j)] = "GND"
+            pins = [j for j in free if j not in exposed]
+            wanted = ["GND"] + [self.stream.choice(rails)] if rails else ["GND"]
+            self._some(k, pins, wanted if len(pins) >= 3 else wanted[:1])
+        elif kind == "connector" and len(free) >= 2 and self.stream.random() < 0.5:
+            self._some(k, free, ["GND"] + ([self.stream.choice(rails)] if rails else []))
+        elif kind == "passive" and rails and self.stream.random() < self.p.decoupling_fraction:
+            self.nets[(k, 0)] = self.stream.choice(rails)
+            self.nets[(k, 1)] = "GND"
+
+    def _some(self, k: int, pins: list[int], nets: list[str]) -> None:
+        pins = list(pins)
+        for net in nets:
+            if not pins:
+                return
+            j = pins.pop(self.stream.integer(len(pins)))
+            self.nets[(k, j)] = net
+
+    def _signals(self, parts: list[Part]) -> None:
+        pins = [(k, j) for k, part in enumerate(parts) for j in self._free(k, part)]
+        where = {pin: parts[pin[0]].local_to_board(parts[pin[0]].pads[pin[1]].dx,
+                                                   parts[pin[0]].pads[pin[1]].dy)
+                 for pin in pins}
+        sizes = sorted(self.p.signal_net_sizes)
+        weights = [self.p.signal_net_sizes[s] for s in sizes]
+        skipped: set[tuple[int, int]] = set()
+        order = list(pins)
+        for i in range(len(order) - 1, 0, -1):  # Fisher-Yates on the board's stream
+            j = self.stream.integer(i + 1)
+            order[i], order[j] = order[j], order[i]
+        count = 0
+        budget = self.p.max_connections - self._connections()
+        for pin in order:
+            if len(self.nets) >= self.target or budget < 1:
+                return
+            if pin in self.nets or pin in skipped:
+                continue
+            if self.stream.random() >= self.p.connected_fraction:
+                skipped.add(pin)
+                continue
+            size = min(int(self.stream.weighted(sizes, weights)),
+                       max(2, self.target - len(self.nets)), budget + 1)
+            members = self._neighbours(pin, size - 1, pins, where, skipped)
+            if not members:
+                skipped.add(pin)
+                continue
+            count += 1
+            budget -= len(members)
+            for member in [pin, *members]:
+                self.nets[member] = f"N{count}"
+
+    def _neighbours(self, pin, wanted: int, pins, where, skipped) -> list[tuple[int, int]]:
+        """Up to `wanted` free pins of distinct other parts, drawn from the `locality`
+        nearest."""
+        x, y = where[pin]
+        candidates = sorted(
+            ((where[q][0] - x) ** 2 + (where[q][1] - y) ** 2, q) for q in pins
+            if q[0] != pin[0] and q not in self.nets and q not in skipped)
+        pool: list[tuple[int, int]] = []
+        used_parts = {pin[0]}
+        for _, q in candidates:
+            if q[0] not in used_parts:
+                used_parts.add(q[0])
+                pool.append(q)
+            if len(pool) >= self.p.locality + wanted - 1:
+                break
+        chosen: list[tuple[int, int]] = []
+        while pool and len(chosen) < wanted:
+            chosen.append(pool.pop(self.stream.integer(min(len(pool), self.p.locality))))
+        return chosen
+
+    def _drop_lonely(self) -> None:
+        """A net left with one pad (a rail on one part only) becomes an unconnected pin."""
+        sizes: dict[str, int] = {}
+        for net in self.nets.values():
+            sizes[net] = sizes.get(net, 0) + 1
+        self.nets = {pin: net for pin, net in self.nets.items() if sizes[net] >= 2}
+
+
+def pad_position(part: Part, pad: PartPad) -> tuple[int, int]:
+    """A pad's centre on the board (nm)."""
+    return part.local_to_board(pad.dx, pad.dy)

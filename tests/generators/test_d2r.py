@@ -1,0 +1,198 @@
+"""D2R (SPEC section 2b): determinism, geometry (courtyards, outline, edge clearance), nets and
+net classes, parameter checks, and KiCad's DRC on boards of every level."""
+from __future__ import annotations
+
+import json
+import math
+import statistics
+
+import pytest
+from shapely.geometry import Polygon, box
+
+from pcbdata.core.errors import UserError
+from pcbdata.core.tree import PROJECT_FILE, RULES_FILE
+from pcbdata.generators import D2RGenerator, D2RParams
+from pcbdata.generators.d2r import pad_position
+from pcbdata.kicad import DrcReport
+from pcbdata.model.board import Board, EdgeArc, Part
+from pcbdata.model.kicad_writer import board_files
+from pcbdata.spec.configs import d2r_config
+from pcbdata.spec.presets import d2r_level, d2r_levels
+from pcbdata.testing.sets import write_board
+
+LEVELS = sorted(d2r_levels())
+# Every outline shape, mounting holes, four layers and a crowded back side on one level.
+SHAPES = {"outline_mix": {"rounded": 0.25, "chamfered": 0.25, "l_shape": 0.25, "notch": 0.25},
+          "mounting_hole_fraction": 1.0, "four_layer_fraction": 0.5, "back_side_fraction": 0.8}
+
+
+# Boards that would have more ratsnest edges than KiCad's DRC report lists (499).
+HUGE = {"components_median": 300.0, "components_sigma": 0.0}
+
+
+def test_no_board_has_more_missing_connections_than_kicads_drc_can_report():
+    assert [b.missing_connections for b in _boards("c", 2, HUGE)] == [499, 499]
+    with pytest.raises(UserError, match="max_connections must be from 1 to 499"):
+        d2r_config("c", {"max_connections": 500})
+
+
+def test_parts_that_never_fit_are_a_generation_error_not_a_giant_board():
+    from pcbdata.core.errors import GenerationError
+
+    generator = d2r_config("a", {"courtyard_gap_mm": 200.0}).generator()
+    with pytest.raises(GenerationError, match="could not place"):
+        generator.generate(0, "test", 0)
+
+
+def _boards(level: str, count: int, overrides: dict | None = None) -> list[Board]:
+    generator = d2r_config(level, overrides).generator()
+    return [generator.generate(0, "test", i).board for i in range(count)]
+
+
+@pytest.fixture(scope="module")
+def boards() -> list[Board]:
+    out = [b for level in LEVELS for b in _boards(level, 40)]
+    return out + _boards("b", 60, SHAPES)
+
+
+def test_same_seed_split_and_index_give_the_same_bytes():
+    first, second = D2RGenerator(d2r_level("b").params), D2RGenerator(d2r_level("b").params)
+    for index in range(3):
+        a = board_files(first.generate(7, "validation", index).board)
+        assert a == board_files(second.generate(7, "validation", index).board)
+    assert board_files(first.generate(7, "validation", 0).board) != board_files(
+        first.generate(7, "validation", 1).board)
+    assert board_files(first.generate(7, "validation", 0).board) != board_files(
+        first.generate(8, "validation", 0).board)
+
+
+def _courtyard(part: Part):
+    half_w, half_h = part.courtyard if part.rotation % 180 == 0 else part.courtyard[::-1]
+    return box(part.x - half_w, part.y - half_h, part.x + half_w, part.y + half_h)
+
+
+def _outline(board: Board) -> Polygon:
+    """The outline as a polygon; arcs become chords, which lie inside the true outline, so a
+    shape inside this polygon is inside the board."""
+    if not board.outline:
+        return box(0, 0, board.width, board.height)
+    points = []
+    for edge in board.outline:
+        points.append((edge.x1, edge.y1))
+        if isinstance(edge, EdgeArc):
+            points.append((edge.xm, edge.ym))
+    return Polygon(points)
+
+
+def test_courtyards_never_overlap_on_one_side(boards):
+    for board in boards:
+        for side in ("F", "B"):
+            # A through-hole part or mounting hole occupies both sides.
+            rects = [_courtyard(p).bounds for p in board.parts if p.side == side or p.through_hole]
+            for i, a in enumerate(rects):
+                for b in rects[:i]:
+                    apart = a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
+                    assert apart, (board.uuid_seed, side, a, b)
+
+
+def test_every_courtyard_and_pad_lies_inside_the_outline_with_edge_clearance(boards):
+    for board in boards:
+        inner = _outline(board).buffer(-board.rules.edge_clearance, join_style=2)
+        assert inner.is_valid and inner.area > 0
+        for part in board.parts:
+            assert inner.covers(_courtyard(part)), (board.uuid_seed, part.ref)
+            for pad in part.pads:
+                x, y = pad_position(part, pad)
+                assert inner.contains(box(x - 1, y - 1, x + 1, y + 1))
+
+
+def test_rotations_sides_shapes_and_layers_all_occur(boards):
+    parts = [p for b in boards for p in b.parts]
+    assert {p.rotation for p in parts} == {0, 90, 180, 270}
+    assert {p.side for p in parts} == {"F", "B"}
+    assert all(not p.through_hole for p in parts if p.side == "B")
+    assert {b.copper_layers for b in boards} == {2, 4}
+    arcs = sum(isinstance(e, EdgeArc) for b in boards for e in b.outline)
+    assert arcs > 0 and any(not b.outline for b in boards)
+    names = {p.name.split("_")[0].split("-")[0] for p in parts}
+    assert {"RC", "SOIC", "QFN", "PinHeader", "MountingHole", "Axial", "DIP"} <= names
+
+
+def test_power_nets_have_many_pads_signal_nets_are_local_and_some_pins_are_free(boards):
+    near, spread, free, ground_largest = [], [], 0, 0
+    for board in boards:
+        pads = [(pad.net, pad_position(part, pad)) for part in board.parts for pad in part.pads
+                if pad.plated]
+        free += any(not net for net, _ in pads)
+        sizes = {net: sum(n == net for n, _ in pads) for net in board.net_names}
+        assert all(size >= 2 for size in sizes.values())
+        assert set(board.net_classes[0].nets) <= set(sizes) - {n for n in sizes if n[0] == "N"}
+        ground_largest += sizes.get("GND", 0) == max(sizes.values())
+        for net in board.net_names:
+            if net.startswith("N"):
+                xy = [p for n, p in pads if n == net]
+                near.append(math.dist(xy[0], xy[1]))
+        where = [xy for net, xy in pads if net]
+        spread += [math.dist(a, b) for a, b in zip(where, where[7:])]
+    assert free > 0.9 * len(boards)  # unconnected pins
+    assert ground_largest > 0.8 * len(boards)  # ground touches the most pads
+    # Signal nets join nearby parts: their pins are far closer than pins in general.
+    assert statistics.median(near) < 0.6 * statistics.median(spread)
+
+
+def test_net_classes_are_written_to_the_project_and_the_custom_rules():
+    board = _boards("b", 1)[0]
+    files = board_files(board)
+    project = json.loads(files[PROJECT_FILE])["net_settings"]
+    power = next(c for c in project["classes"] if c["name"] == "Power")
+    params = D2RParams()
+    assert power["clearance"] == params.power_clearance_mm
+    assert power["track_width"] == params.power_track_width_mm
+    patterns = {p["pattern"]: p["netclass"] for p in project["netclass_patterns"]}
+    assert patterns["GND"] == "Power" and not any(n.startswith("N") for n in patterns)
+    rules = files[RULES_FILE]
+    assert "(condition \"A.NetClass == 'Power'\")" in rules
+    assert "(constraint track_width (min 0.4mm))" in rules
+    assert "(constraint clearance (min 0.2mm))" in rules
+
+
+def test_levels_follow_their_tier_sizes():
+    """The medians of components and terminal pads are near the levels' targets."""
+    for level, components, pads in (("a", 7, 17), ("b", 19, 57), ("c", 55, 180)):
+        sample = _boards(level, 40)
+        assert abs(statistics.median(len(b.parts) for b in sample) / components - 1) < 0.35
+        assert abs(statistics.median(b.n_pads for b in sample) / pads - 1) < 0.35
+
+
+@pytest.mark.parametrize("overrides, message", [
+    ({"components_medain": 5}, "did you mean 'components_median'"),
+    ({"part_mix": {"passive": 0.5, "qfn": 0.2}}, "part_mix probabilities must sum to 1"),
+    ({"part_mix": {"passive": 0.5, "bga": 0.5}}, "unknown key 'bga'"),
+    ({"qfn_pitches_mm": [0.3]}, "qfn_pitches_mm must list pitches"),
+    ({"power_clearance_mm": 0.25}, "above the library's smallest gap"),
+    ({"via_drill_mm": 0.8, "via_diameter_mm": 1.2, "power_via_drill_mm": 0.8,
+      "power_via_diameter_mm": 1.2}, "above the library's smallest pad hole"),
+    ({"power_track_width_mm": 0.1}, "power_track_width_mm must not be below"),
+    ({"via_diameter_mm": 0.4}, "annular ring"),
+    ({"components_range": [5, 2]}, "components_range must be"),
+    ({"fill_range": 0.5}, "must be a range [low, high]"),
+    ({"components_median": "many"}, "must be a number"),
+    ({"locality": 2.5}, "must be an integer"),
+])
+def test_bad_parameters_are_rejected_with_the_reason(overrides, message):
+    with pytest.raises(UserError, match=message.replace("[", r"\[").replace("(", r"\(")):
+        d2r_config("b", overrides)
+
+
+def test_every_level_and_shape_passes_kicads_drc_but_for_unconnected_items(kicad_pool,
+                                                                             tmp_path):
+    jobs = []
+    samples = [(level, None, 2) for level in LEVELS] + [("a", SHAPES, 4), ("c", HUGE, 1)]
+    for level, overrides, count in samples:
+        for index, board in enumerate(_boards(level, count, overrides)):
+            path = write_board(tmp_path / f"{level}-{overrides is not None}-{index}", board)
+            jobs.append((str(path), board.missing_connections))
+    for outcome in kicad_pool.map("pcbdata.kicad.basics:drc", [(p,) for p, _ in jobs]):
+        assert outcome.ok, outcome.error
+        report = DrcReport.from_dict(outcome.value)
+        assert report.counts_by_type() == {"unconnected_items": jobs[outcome.index][1]}
