@@ -86,8 +86,8 @@ def _angle_suffix(angle: float) -> str:
 # ---- components ----------------------------------------------------------------------------
 
 def _turn_components(dsn: str, stacks: dict, turned: set) -> str:
-    """Gives each (image, rotation) whose pins turn an image with turned padstacks; collects
-    the (padstack, angle) pairs needed in `turned`."""
+    """Gives every (image, rotation) whose pins turn an image of its own on turned padstacks;
+    adds the (padstack, angle) pairs those need to `turned`."""
     images = {name: (start, end) for name, start, end in _named_blocks(dsn, "image")}
     placement = re.search(r"\(placement\s", dsn)
     if placement is None:
@@ -97,8 +97,7 @@ def _turn_components(dsn: str, stacks: dict, turned: set) -> str:
     for name, start, end in _named_blocks(dsn[:p_end], "component"):
         if start < placement.start() or name not in images:
             continue
-        block, added = _split_component(dsn, name, start, end, images[name], stacks,
-                                                  turned)
+        block, added = _split_component(dsn, name, start, end, images[name], stacks, turned)
         out += [dsn[pos:start], block]
         pos = end
         new_images += added
@@ -142,6 +141,8 @@ def _turned_image(image: str, name: str, rotation: float, back: bool, stacks: di
         nonlocal changed
         own = _ROTATE.search(match.group(2))
         own_angle = float(own.group(1)) if own else 0.0
+        # A mirrored image's padstacks are mirrored already; a pad turned in the footprint
+        # turns the other way in the mirror image, before the placement turns it.
         angle = _angle(rotation - own_angle if back else rotation + own_angle)
         stack = match.group(1)
         if angle == 0.0 or _turn_invariant(stacks.get(stack, []), angle):
@@ -162,13 +163,13 @@ def _turned_image(image: str, name: str, rotation: float, back: bool, stacks: di
 
 def _turn_invariant(shapes: list[PadShape], angle: float) -> bool:
     """Whether turning by `angle` leaves the shapes as they are (centred circles always;
-    centred rectangles and ovals by 180 degrees)."""
+    centred rectangles and ovals by 180 degrees; polygons never, to be safe)."""
     for shape in shapes:
         if shape.kind == "circle":
             if len(shape.numbers) >= 3 and any(shape.numbers[1:3]):
                 return False
             continue
-        if angle != 180.0:
+        if angle != 180.0 or shape.kind == "polygon":
             return False
         points = shape.numbers if shape.kind == "rect" else shape.numbers[1:]
         xs, ys = points[0::2], points[1::2]
