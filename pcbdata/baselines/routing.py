@@ -51,7 +51,7 @@ def rollout_plans(router: str, router_cmd: str | None, rollouts: int,
     for r in range(rollouts):
         argv, fix, label = specctra.router_command(router, router_cmd, r)
         version = specctra.freeroute_version() if fix else "unknown"
-        route_args = (argv, router_timeout, fix, fix, fix)
+        route_args = (argv, router_timeout, fix, fix, fix, fix)
         plans.append(RolloutPlan(specctra.ROUTE, route_args, label, version))
     return plans
 

@@ -16,7 +16,14 @@ from pcbdata.core.sexpr_text import block_end
 
 _PLACE = re.compile(r"^(\s*\(place\s+(\S+)\s+\S+\s+\S+\s+)back(\s)", re.M)
 _COMPONENT = re.compile(r"^(\s*)\(component\s+(\S+)\s*$", re.M)
-_SUFFIX = "__back"
+BACK_SUFFIX = "__back"
+
+
+def suffixed(name: str, suffix: str) -> str:
+    """A DSN name with `suffix` added, inside the quotes of a quoted name (KiCad quotes names
+    such as "Lib:Part-1"; a suffix after the closing quote would be a token of its own, and
+    the router would read the unsuffixed name)."""
+    return name[:-1] + suffix + '"' if len(name) > 1 and name.startswith('"') else name + suffix
 
 
 def _block(text: str, start: int) -> int:
@@ -43,7 +50,7 @@ def _negate_x(numbers: str) -> str:
 
 
 def _mirror_padstack(body: str, name: str) -> str:
-    body = body.replace(name, name + _SUFFIX, 1)
+    body = body.replace(name, suffixed(name, BACK_SUFFIX), 1)
     body = body.replace("F.Cu", "\0").replace("B.Cu", "F.Cu").replace("\0", "B.Cu")
 
     def shape(match: re.Match) -> str:
@@ -82,7 +89,7 @@ def flip_back_components(dsn: str) -> tuple[str, set[str]]:
         kept = "\n".join(line for line in block.splitlines() if not _PLACE.match(line))
         flipped = "\n".join(_PLACE.sub(r"\1front\3", line) for line in backs)
         indent = comp.group(1).lstrip("\n")
-        new = f"{kept}\n{indent}(component {image}{_SUFFIX}\n{flipped}\n{indent})"
+        new = f"{kept}\n{indent}(component {suffixed(image, BACK_SUFFIX)}\n{flipped}\n{indent})"
         out.append(dsn[pos:start])
         out.append(new)
         pos = end
@@ -94,13 +101,14 @@ def flip_back_components(dsn: str) -> tuple[str, set[str]]:
         span = _find_named(dsn, "image", image)
         if span is None:
             continue
-        body = dsn[span[0]:span[1]].replace(image, image + _SUFFIX, 1)
+        body = dsn[span[0]:span[1]].replace(image, suffixed(image, BACK_SUFFIX), 1)
 
         def pin(match: re.Match) -> str:
             stacks.add(match.group(2))
             x = match.group(4)
             x = x[1:] if x.startswith("-") else ("-" + x if x not in ("0", "0.0") else x)
-            return f"{match.group(1)}{match.group(2)}{_SUFFIX}{match.group(3)}{x}{match.group(5)}"
+            return f"{match.group(1)}{suffixed(match.group(2), BACK_SUFFIX)}{match.group(3)}{x}" \
+                   f"{match.group(5)}"
 
         body = re.sub(r"(\(pin\s+)(\S+)((?:\s+\(rotate\s+[^)]*\))?\s+\S+\s+)"
                       r"(-?[\d.]+)(\s+-?[\d.]+)", pin, body)
@@ -126,7 +134,7 @@ def restore_back_placements(ses: str, refs: set[str]) -> str:
         return match.group(0)
 
     ses = re.sub(r"(\(place\s+(\S+)\s+\S+\s+\S+\s+)(front)(\s)", place, ses)
-    return ses.replace(_SUFFIX, "")
+    return ses.replace(BACK_SUFFIX, "")
 
 
 # --- freeroute's via model -------------------------------------------------------------------

@@ -1,5 +1,6 @@
 """The board as the walkaround router sees it (`pcbdata.router.geometry.BoardGeometry`): pad
-polygons per layer, tracks, vias and zones from KiCad, each with its net's clearance."""
+polygons per layer, tracks, vias and zones from KiCad, each with its net's clearance (a pad:
+its own clearance override where that is larger, which KiCad's DRC holds tracks to)."""
 from __future__ import annotations
 
 from pcbdata.env.types import StaticBoard
@@ -14,7 +15,7 @@ def _pad_items(static: StaticBoard, clearance: dict[str, int], CopperItem) -> li
                 by_shape.setdefault(tuple(tuple(p) for p in ring), []).append(layer)
         for ring, layers in by_shape.items():
             items.append(CopperItem(kind="pad", net=pad.net, layers=tuple(layers), polygon=ring,
-                                    clearance=clearance.get(pad.net, 0)))
+                                    clearance=max(clearance.get(pad.net, 0), pad.clearance)))
     return items
 
 

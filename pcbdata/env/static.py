@@ -18,7 +18,8 @@ def static_board(board_id: str, raw: dict, spec: ConfigSpec) -> StaticBoard:
     index = {name: i for i, name in enumerate(layers)}
     pads = tuple(PadInfo(net=p["net"], x=p["x"], y=p["y"], size=tuple(p["size"]),
                          shape=p["shape"], layers=tuple(index[n] for n in p["layers"]),
-                         drill=p["drill"], name=p["name"], polygons=p["polygons"])
+                         drill=p["drill"], name=p["name"], polygons=p["polygons"],
+                         clearance=p.get("clearance", 0))
                  for p in raw["pads"])
     with_pads = {p.net for p in pads if p.net}
     nets = tuple(NetRules(n["name"], n["clearance"], n["track_width"], n["via_diameter"],

@@ -63,6 +63,7 @@ class PadInfo:
     drill: int
     name: str
     polygons: dict = field(default_factory=dict, compare=False)  # layer name -> rings
+    clearance: int = 0  # the pad's (or its footprint's) clearance override, 0 if none
 
 
 @dataclass(frozen=True)

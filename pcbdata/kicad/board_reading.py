@@ -57,7 +57,17 @@ def pad_record(board, pad, layers: dict[str, int]) -> dict:
             "drill": int(pad.GetDrillSize().x), "through_hole": pad.GetDrillSize().x > 0,
             "orientation": float(pad.GetOrientationDegrees()),
             "name": f"{pad.GetParentFootprint().GetReference()}:{pad.GetNumber()}",
-            "polygons": shapes}
+            "polygons": shapes, "clearance": local_clearance(pad, pad.GetParentFootprint())}
+
+
+def local_clearance(*items) -> int:
+    """The first clearance override set on `items` (a pad, then its footprint), 0 if none:
+    KiCad's DRC uses it for that pad instead of its net class clearance."""
+    for item in items:
+        value = item.GetLocalClearance()
+        if value is not None:
+            return int(value)
+    return 0
 
 
 def zone_records(board, layers: dict[str, int]) -> list[dict]:

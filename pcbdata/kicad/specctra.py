@@ -56,10 +56,12 @@ def strip_ses_placement(ses: str) -> str:
 
 def route_board(board_path: str, instance_dir: str, out_path: str, command: list[str],
                 router_timeout: float, fix_resolution: bool = False,
-                flip_back: bool = False, plan_for_vias: bool = False) -> dict:
+                flip_back: bool = False, plan_for_vias: bool = False,
+                exact_pads: bool = False) -> dict:
     """Exports the board as DSN, runs `command` on it, imports the SES and saves the routed
-    board to `out_path`. `fix_resolution`, `flip_back` and `plan_for_vias` work around
-    freeroute defects (see `fix_ses_resolution` and `pcbdata.core.specctra_text`).
+    board to `out_path`. `fix_resolution`, `flip_back`, `plan_for_vias` and `exact_pads` work
+    around freeroute defects (see `fix_ses_resolution`, `pcbdata.core.specctra_text` and
+    `pcbdata.core.specctra_pads`).
     Returns {ok, reason, seconds, router_seconds, router_cpu_seconds, tracks, vias}."""
     pcbnew = _pcbnew()
     start = time.perf_counter()
@@ -69,22 +71,11 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         dsn, ses = os.path.join(tmp, "board.dsn"), os.path.join(tmp, "board.ses")
         if not pcbnew.ExportSpecctraDSN(board, dsn):
             return {"ok": False, "reason": "KiCad could not export the DSN file"}
-        back_refs: set[str] = set()
-        planning: dict = {}
-        if plan_for_vias:
-            from pcbdata.core.specctra_text import prepare_dsn_for_freeroute
-
-            with open(dsn, encoding="utf-8") as handle:
-                text, planning = prepare_dsn_for_freeroute(handle.read())
-            with open(dsn, "w", encoding="utf-8") as handle:
-                handle.write(text)
-        if flip_back:
-            from pcbdata.core.specctra_text import flip_back_components
-
-            with open(dsn, encoding="utf-8") as handle:
-                text, back_refs = flip_back_components(handle.read())
-            with open(dsn, "w", encoding="utf-8") as handle:
-                handle.write(text)
+        with open(dsn, encoding="utf-8") as handle:
+            text, back_refs, planning = router_dsn(handle.read(), flip_back, plan_for_vias,
+                                                   exact_pads)
+        with open(dsn, "w", encoding="utf-8") as handle:
+            handle.write(text)
         argv = [a.replace("{dsn}", dsn).replace("{ses}", ses) for a in command]
         router_start, cpu_start = time.perf_counter(), _children_cpu()
         try:
@@ -139,6 +130,53 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         return {"ok": True, "reason": "", "seconds": time.perf_counter() - start,
                 "router_seconds": router_seconds, "router_cpu_seconds": router_cpu,
                 "tracks": tracks, "vias": vias}
+
+
+def router_dsn(text: str, flip_back: bool, plan_for_vias: bool,
+               exact_pads: bool) -> tuple[str, set[str], dict]:
+    """KiCad's DSN with the chosen freeroute work-arounds: (text, references flipped from the
+    back, what the session needs back after planning for vias). The pads are rewritten last:
+    mirrored images turn their pins the other way."""
+    from pcbdata.core.specctra_pads import exact_pads as rewrite_pads
+    from pcbdata.core.specctra_text import flip_back_components, prepare_dsn_for_freeroute
+
+    planning: dict = {}
+    back_refs: set[str] = set()
+    if plan_for_vias:
+        text, planning = prepare_dsn_for_freeroute(text)
+    if flip_back:
+        text, back_refs = flip_back_components(text)
+    if exact_pads:
+        text = rewrite_pads(text)
+    return text, back_refs, planning
+
+
+def dsn_and_pads(board_path: str, instance_dir: str, fixes: bool = True) -> dict:
+    """The DSN a router is given for this board (with every freeroute work-around when
+    `fixes`) and KiCad's pads as boxes in the DSN's frame (micrometres, y up):
+    {"dsn": text, "pads": [{"name", "layers", "through_hole", "box": (x1, y1, x2, y2)}]}.
+    What the router reads can then be checked against the board."""
+    pcbnew = _pcbnew()
+    with tempfile.TemporaryDirectory(prefix="pcbdata-dsn-") as tmp:
+        board = pcbnew.LoadBoard(stage_board(board_path, instance_dir, tmp))
+        dsn = os.path.join(tmp, "board.dsn")
+        if not pcbnew.ExportSpecctraDSN(board, dsn):
+            raise RuntimeError(f"{board_path}: KiCad could not export the DSN file")
+        with open(dsn, encoding="utf-8") as handle:
+            text = router_dsn(handle.read(), fixes, fixes, fixes)[0]
+    pads = []
+    for pad in board.GetPads():
+        for layer in board.GetEnabledLayers().CuStack():
+            if not pad.IsOnLayer(layer):
+                continue
+            box = pad.GetEffectivePolygon(layer, pcbnew.ERROR_INSIDE).BBox()
+            x1, y1 = box.GetX(), box.GetY()
+            x2, y2 = x1 + box.GetWidth(), y1 + box.GetHeight()
+            pads.append({"name": f"{pad.GetParentFootprint().GetReference()}:{pad.GetNumber()}",
+                         "layer": str(board.GetLayerName(layer)),
+                         "through_hole": pad.GetDrillSize().x > 0,
+                         "box": (x1 / 1000, -y2 / 1000, x2 / 1000, -y1 / 1000)})
+    return {"dsn": text, "pads": pads}
 
 
 def _children_cpu() -> float:

@@ -15,11 +15,12 @@ from tests.conftest import REPO_ROOT
 
 PACKAGE = REPO_ROOT / "pcbdata"
 LEAVES = {"pcbdata.core.errors", "pcbdata.core.hashing", "pcbdata.core.textio", "pcbdata.core.tree",
-          "pcbdata.core.sexpr_text", "pcbdata.core.specctra_text", "pcbdata.core.ratsnest",
-          "pcbdata.core.copper_geometry", "pcbdata.core.copper_text", "pcbdata.core.fsutil"}
+          "pcbdata.core.sexpr_text", "pcbdata.core.specctra_text", "pcbdata.core.specctra_pads",
+          "pcbdata.core.ratsnest", "pcbdata.core.copper_geometry", "pcbdata.core.copper_text",
+          "pcbdata.core.fsutil"}
 THIRD_PARTY_ALLOWED = {"pcbnew"}
 #: Pure numerics and geometry, no KiCad: the leaves may use them (cut-file check, Specctra
-#: boundary inset).
+#: boundary inset, pad outlines).
 LEAF_THIRD_PARTY = {"numpy", "shapely"}
 
 
