@@ -143,6 +143,75 @@ def ks_table(d3_root: Path, tiers: list[str], synthetic: list[BoardStatistics]) 
     return table
 
 
+# --- difficulty: the agent's CP @1 on both sides ---------------------------------------
+
+def spread(items: list, count: int) -> list:
+    """`count` items evenly spread over `items` (all of them if there are no more): the first
+    N of a D3 tier would be its N smallest boards."""
+    if len(items) <= count:
+        return list(items)
+    last = len(items) - 1
+    return [items[round(i * last / (count - 1))] for i in range(count)]
+
+
+def difficulty(args, d3_root: Path, tier: str) -> dict:
+    """CP @1 of `args.agent` on `args.boards` synthetic boards (the split's first ones:
+    synthetic boards are drawn independently) and as many of the tier's `full` split, spread
+    over its table order. Runs and reports go under `args.work` (a rerun resumes)."""
+    work = Path(args.work)
+    real_ids = [b.board_id for b in spread(d3_tier_boards(d3_root, tier), args.boards)]
+    ours = synthetic_boards(Path(args.synthetic), args.config, args.split, args.boards)
+    sides = {"real": (d3_root, tier_config(tier), D3_SPLIT, real_ids),
+             "synthetic": (Path(args.synthetic), args.config, args.split,
+                           [b.board_id for b in ours])}
+    out = {}
+    for side, (root, config, split, ids) in sides.items():
+        runs = work / f"{side}-{config}-{args.agent}"
+        _rollouts(root, config, split, ids, args.agent, runs, args.workers)
+        out[side] = _cp_at1(root, config, split, ids, runs, work / f"{runs.name}-report",
+                            args.workers)
+        out[side].update(config=config, split=split)
+    out["agent"] = args.agent
+    return out
+
+
+def _rollouts(root: Path, config: str, split: str, board_ids: list[str], agent: str,
+              runs: Path, workers: int) -> None:
+    """One rollout (seed 0) per board, as `pcbdata rollout` runs them, for chosen boards."""
+    from pcbdata.agents.rollout import ROLLOUT_TIMEOUT, pending
+    from pcbdata.env.registry import env_id_for
+    from pcbdata.executors import resolve
+
+    todo = pending(board_ids, 1, runs)
+    env_kwargs = {"id": env_id_for(config), "config": config, "root": str(root.resolve()),
+                  "split": split}
+    tasks = [(env_kwargs, agent, b, r, str(runs.resolve()), None) for b, r in todo]
+    if not tasks:
+        return
+    with resolve(None).pool(workers=max(1, min(workers, len(tasks))),
+                            task_timeout=ROLLOUT_TIMEOUT, tasks_per_worker=10**9,
+                            memory_limit_mb=0) as pool:
+        for done, outcome in enumerate(pool.map("pcbdata.agents.rollout:rollout_task", tasks), 1):
+            what = "ok" if outcome.ok else f"failed: {outcome.error}"
+            print(f"  [{done}/{len(tasks)}] {config} {todo[outcome.index][0]}: {what}",
+                  file=sys.stderr)
+
+
+def _cp_at1(root: Path, config: str, split: str, board_ids: list[str], runs: Path,
+            report: Path, workers: int) -> dict:
+    """Mean CP @1 over the chosen boards (`pcbdata eval`; boards not chosen have no
+    rollout and are left out of the mean)."""
+    from pcbdata.evaluator.runs import evaluate_set
+
+    evaluate_set(root, config, split, report, runs=runs, k=1, workers=workers,
+                 progress=False)
+    with open(report / "per_board.csv", newline="", encoding="utf-8") as handle:
+        rows = {r["board_id"]: r for r in csv.DictReader(handle)}
+    cps = [float(rows[b]["cp"] or 0) for b in board_ids]
+    return {"boards": len(cps), "cp_at1": sum(cps) / len(cps) if cps else None,
+            "board_ids": board_ids}
+
+
 def markdown(report: dict) -> str:
     tiers = list(report["ks"])
     head = "| statistic | " + " | ".join(f"D3-{t} ({report['ks'][t]['boards']} held out)"
@@ -154,7 +223,16 @@ def markdown(report: dict) -> str:
         cells = [_cell(report["ks"][t]["distances"][name]) for t in tiers]
         label = name + (" (all nets)" if name == PER_NET else "")
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    for tier, side in report.get("difficulty", {}).items():
+        real, ours = side["real"], side["synthetic"]
+        lines.append(f"\n{side['agent']} CP @1: D3-{tier} ({real['boards']} boards of "
+                     f"`{real['config']}/{real['split']}`) {_percent(real['cp_at1'])}, "
+                     f"`{ours['config']}` ({ours['boards']} boards) {_percent(ours['cp_at1'])}")
     return "\n".join(lines) + "\n"
+
+
+def _percent(cp: float | None) -> str:
+    return "n/a" if cp is None else f"{100 * cp:.1f}"
 
 
 def _cell(distance: float | None) -> str:
@@ -179,9 +257,7 @@ def main(argv: list[str] | None = None) -> None:
               "config": args.config, "split": args.split, "synthetic_boards": len(boards),
               "d3": str(d3_root), "ks": ks_table(d3_root, args.tier, measure(boards))}
     if args.difficulty:
-        from bench_realism_difficulty import difficulty
-
-        report["difficulty"] = difficulty(args, d3_root)
+        report["difficulty"] = {tier: difficulty(args, d3_root, tier) for tier in args.tier}
     report["seconds"] = round(time.perf_counter() - start, 1)
     text = markdown(report)
     print(text)
@@ -208,7 +284,9 @@ def _parser() -> argparse.ArgumentParser:
                         help="also the agent's CP @1 on the synthetic set vs the real tier")
     parser.add_argument("--agent", default="scripted-shove", help="agent for --difficulty")
     parser.add_argument("--boards", type=int, default=64, help="boards per side (--difficulty)")
-    parser.add_argument("--workers", type=int, default=2, help="rollout workers")
+    parser.add_argument("--workers", type=int, default=2, help="rollout and eval workers")
+    parser.add_argument("--work", default="/tmp/bench-realism",
+                        help="runs and eval reports of --difficulty (kept: a rerun resumes)")
     return parser
 
 
