@@ -16,6 +16,8 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
+import os
 import sys
 import time
 from dataclasses import dataclass
@@ -130,17 +132,27 @@ def _definitions() -> dict:
     }
 
 
-def ks_table(d3_root: Path, tiers: list[str], synthetic: list[BoardStatistics]) -> dict:
-    """Per tier and statistic: KS distance between the held-out half and the synthetic set."""
-    ours = pooled_samples(synthetic)
+def ks_table(d3_root: Path, tiers: list[str], synthetic: list[BoardStatistics] | None) -> dict:
+    """Per tier and statistic: KS distance between the held-out half and the synthetic set
+    (None: the tier's own calibration half, the distance that sampling alone gives), with the
+    95 % critical value of the two sample sizes."""
     table: dict = {}
     for tier in tiers:
-        _, held_out = halves(d3_tier_boards(d3_root, tier))
+        calibration, held_out = halves(d3_tier_boards(d3_root, tier))
         real = pooled_samples(measure(held_out))
-        table[tier] = {"boards": len(held_out), "distances": {
-            name: ks_distance(real[name], ours[name]) for name in STATISTICS},
-            "counts": {name: [len(real[name]), len(ours[name])] for name in STATISTICS}}
+        ours = pooled_samples(measure(calibration) if synthetic is None else synthetic)
+        counts = {name: [len(real[name]), len(ours[name])] for name in STATISTICS}
+        table[tier] = {"boards": len(held_out), "counts": counts,
+                       "distances": {name: ks_distance(real[name], ours[name])
+                                     for name in STATISTICS},
+                       "critical_95": {name: _critical(*counts[name]) for name in STATISTICS}}
     return table
+
+
+def _critical(n: int, m: int) -> float | None:
+    """The asymptotic 95 % critical value of the two-sample KS distance (independent draws;
+    the pooled nets of a board are not, so for pads per net it is only a guide)."""
+    return round(1.358 * math.sqrt((n + m) / (n * m)), 3) if n and m else None
 
 
 # --- difficulty: the agent's CP @1 on both sides ---------------------------------------
@@ -216,11 +228,15 @@ def markdown(report: dict) -> str:
     tiers = list(report["ks"])
     head = "| statistic | " + " | ".join(f"D3-{t} ({report['ks'][t]['boards']} held out)"
                                           for t in tiers) + " |"
-    lines = [f"Synthetic: `{report['config']}` ({report['synthetic_boards']} boards, split "
-             f"`{report['split']}`); KS target <= {KS_TARGET}", "", head,
+    side = (f"`{report['config']}` ({report['synthetic_boards']} boards, split "
+            f"`{report['split']}`)" if report["synthetic_boards"]
+            else "each tier's calibration half")
+    lines = [f"{side}: KS distance vs the held-out half (95 % critical value); * above the "
+             f"target {KS_TARGET}", "", head,
              "|---|" + "---:|" * len(tiers)]
     for name in STATISTICS:
-        cells = [_cell(report["ks"][t]["distances"][name]) for t in tiers]
+        cells = [_cell(report["ks"][t]["distances"][name], report["ks"][t]["critical_95"][name])
+                 for t in tiers]
         label = name + (" (all nets)" if name == PER_NET else "")
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     for tier, side in report.get("difficulty", {}).items():
@@ -235,11 +251,11 @@ def _percent(cp: float | None) -> str:
     return "n/a" if cp is None else f"{100 * cp:.1f}"
 
 
-def _cell(distance: float | None) -> str:
+def _cell(distance: float | None, critical: float | None) -> str:
     if distance is None:
         return "n/a"
     mark = "" if distance <= KS_TARGET else " *"
-    return f"{distance:.3f}{mark}"
+    return f"{distance:.3f}{mark} ({critical:.2f})"
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -249,14 +265,20 @@ def main(argv: list[str] | None = None) -> None:
         Path(args.write_targets).write_text(json.dumps(targets(d3_root), indent=1) + "\n")
         print(f"wrote {args.write_targets}")
         return
-    if not args.synthetic or not args.config:
-        raise SystemExit("bench_realism: --synthetic and --config are needed (or --write-targets)")
     start = time.perf_counter()
-    boards = synthetic_boards(Path(args.synthetic), args.config, args.split, args.limit)
     report = {"machine": machine(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-              "config": args.config, "split": args.split, "synthetic_boards": len(boards),
-              "d3": str(d3_root), "ks": ks_table(d3_root, args.tier, measure(boards))}
-    if args.difficulty:
+              "load_average": os.getloadavg(), "d3": str(d3_root)}
+    if args.halves:
+        report.update(config="calibration half", split="odd rows", synthetic_boards=0,
+                      ks=ks_table(d3_root, args.tier, None))
+    elif not args.synthetic or not args.config:
+        raise SystemExit("bench_realism: give --synthetic and --config (or --halves, or "
+                         "--write-targets)")
+    else:
+        boards = synthetic_boards(Path(args.synthetic), args.config, args.split, args.limit)
+        report.update(config=args.config, split=args.split, synthetic_boards=len(boards),
+                      ks=ks_table(d3_root, args.tier, measure(boards)))
+    if args.difficulty and not args.halves:
         report["difficulty"] = {tier: difficulty(args, d3_root, tier) for tier in args.tier}
     report["seconds"] = round(time.perf_counter() - start, 1)
     text = markdown(report)
@@ -278,6 +300,9 @@ def _parser() -> argparse.ArgumentParser:
                         help="tiers to compare with, e.g. B or A,B,C (default: all)")
     parser.add_argument("--md", help="write the table as Markdown here")
     parser.add_argument("--json", help="write the whole report as JSON here")
+    parser.add_argument("--halves", action="store_true",
+                        help="compare each tier's calibration half with its held-out half "
+                             "instead of a synthetic set (the distance sampling alone gives)")
     parser.add_argument("--write-targets", metavar="PATH",
                         help="only write each tier's calibration-half summary (JSON)")
     parser.add_argument("--difficulty", action="store_true",
