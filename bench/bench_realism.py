@@ -178,17 +178,18 @@ def difficulty(args, d3_root: Path, tier: str) -> dict:
                            [b.board_id for b in ours])}
     out = {}
     for side, (root, config, split, ids) in sides.items():
-        runs = work / f"{side}-{config}-{args.agent}"
-        _rollouts(root, config, split, ids, args.agent, runs, args.workers)
+        suffix = "" if args.drc == "step" else f"-drc-{args.drc}"
+        runs = work / f"{side}-{config}-{args.agent}{suffix}"
+        _rollouts(root, config, split, ids, args.agent, runs, args.workers, args.drc)
         out[side] = _cp_at1(root, config, split, ids, runs, work / f"{runs.name}-report",
                             args.workers)
         out[side].update(config=config, split=split)
-    out["agent"] = args.agent
+    out.update(agent=args.agent, drc=args.drc)
     return out
 
 
 def _rollouts(root: Path, config: str, split: str, board_ids: list[str], agent: str,
-              runs: Path, workers: int) -> None:
+              runs: Path, workers: int, drc: str) -> None:
     """One rollout (seed 0) per board, as `pcbdata rollout` runs them, for chosen boards."""
     from pcbdata.agents.rollout import ROLLOUT_TIMEOUT, pending
     from pcbdata.env.registry import env_id_for
@@ -196,7 +197,7 @@ def _rollouts(root: Path, config: str, split: str, board_ids: list[str], agent: 
 
     todo = pending(board_ids, 1, runs)
     env_kwargs = {"id": env_id_for(config), "config": config, "root": str(root.resolve()),
-                  "split": split}
+                  "split": split, "drc": drc}
     tasks = [(env_kwargs, agent, b, r, str(runs.resolve()), None) for b, r in todo]
     if not tasks:
         return
@@ -309,6 +310,8 @@ def _parser() -> argparse.ArgumentParser:
                         help="also the agent's CP @1 on the synthetic set vs the real tier")
     parser.add_argument("--agent", default="scripted-shove", help="agent for --difficulty")
     parser.add_argument("--boards", type=int, default=64, help="boards per side (--difficulty)")
+    parser.add_argument("--drc", choices=("step", "terminal"), default="step",
+                        help="the environment's DRC, as `pcbdata rollout --drc` (default: step)")
     parser.add_argument("--workers", type=int, default=2, help="rollout and eval workers")
     parser.add_argument("--work", default="/tmp/bench-realism",
                         help="runs and eval reports of --difficulty (kept: a rerun resumes)")
