@@ -206,10 +206,18 @@ def _rollouts(root: Path, config: str, split: str, board_ids: list[str], agent: 
     with resolve(None).pool(workers=max(1, min(workers, len(tasks))),
                             task_timeout=ROLLOUT_TIMEOUT, tasks_per_worker=10**9,
                             memory_limit_mb=0) as pool:
-        for done, outcome in enumerate(pool.map("pcbdata.agents.rollout:rollout_task", tasks), 1):
-            what = "ok" if outcome.ok else f"failed: {outcome.error}"
-            print(f"  [{done}/{len(tasks)}] {config} {todo[outcome.index][0]}: {what}",
-                  file=sys.stderr)
+        outcomes = pool.map("pcbdata.agents.rollout:rollout_task", tasks)
+        errors = [_report_rollout(done, len(tasks), config, todo[outcome.index][0], outcome)
+                  for done, outcome in enumerate(outcomes, 1)]
+    if all(errors):
+        raise SystemExit(f"bench_realism: every rollout on {config} failed: {errors[0]}")
+
+
+def _report_rollout(done: int, total: int, config: str, board_id: str, outcome) -> str | None:
+    """Prints one progress line; returns the error (None if the rollout ran)."""
+    what = "ok" if outcome.ok else f"failed: {outcome.error}"
+    print(f"  [{done}/{total}] {config} {board_id}: {what}", file=sys.stderr)
+    return None if outcome.ok else str(outcome.error)
 
 
 def _cp_at1(root: Path, config: str, split: str, board_ids: list[str], runs: Path,
