@@ -1,0 +1,336 @@
+"""How much synthetic boards look like the real D3 tiers (SPEC section 2b, docs/realism.md).
+
+    python bench/bench_realism.py --d3 D3_DIR --synthetic SET_DIR --config d2r-b --tier B
+        [--split train] [--limit N] [--md PATH] [--json PATH]
+        [--difficulty --agent scripted-shove --boards 64 --workers 2]
+    python bench/bench_realism.py --d3 D3_DIR --write-targets PATH
+
+Both sides are measured from the board files (`pcbdata.synthetic.board_statistics`). A tier's
+rows are its boards in `characteristics.csv` order (the table order: pads, nets, components,
+name); row number = the 1-based position among that tier's rows. Odd row numbers are the
+calibration half (what a generator may be tuned on, `--write-targets`), even ones the
+held-out half the Kolmogorov-Smirnov distances are measured against.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import os
+import sys
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _measure import machine  # noqa: E402
+
+from pcbdata.core import tree  # noqa: E402
+from pcbdata.synthetic.board_statistics import (  # noqa: E402
+    PER_NET,
+    STATISTICS,
+    BoardStatistics,
+    board_statistics,
+    ks_distance,
+    pooled_samples,
+    summary,
+)
+
+TIERS = ("A", "B", "C")
+#: SPEC 2b: every distance at most this.
+KS_TARGET = 0.15
+D3_SPLIT = "full"
+#: Statistics with few integer values: the targets add their full frequency table.
+DISCRETE = ("layers", PER_NET)
+
+
+@dataclass(frozen=True)
+class Board:
+    board_id: str
+    path: Path
+
+
+def tier_config(tier: str) -> str:
+    return f"d3-{tier.lower()}"
+
+
+def d3_tier_boards(d3_root: Path, tier: str) -> list[Board]:
+    """The tier's boards in `characteristics.csv` order (its `full` split: the whole tier)."""
+    with open(d3_root / tree.CHARACTERISTICS_CSV, newline="", encoding="utf-8") as handle:
+        rows = [r for r in csv.DictReader(handle) if r["tier"] == tier]
+    config = tier_config(tier)
+    return [Board(r["board_id"], tree.board_dir(d3_root, config, D3_SPLIT, r["board_id"])
+                  / tree.BOARD_FILE) for r in rows]
+
+
+def halves(boards: list[Board]) -> tuple[list[Board], list[Board]]:
+    """(calibration = odd row numbers, held out = even), row numbers counted from 1."""
+    return boards[0::2], boards[1::2]
+
+
+def synthetic_boards(root: Path, config: str, split: str, limit: int | None) -> list[Board]:
+    found = [Board(board_id, folder / tree.BOARD_FILE)
+             for board_id, folder in tree.list_instances(root, config, split)]
+    return found[:limit] if limit else found
+
+
+def measure(boards: list[Board]) -> list[BoardStatistics]:
+    return [board_statistics(b.path) for b in boards]
+
+
+def targets(d3_root: Path) -> dict:
+    """Per tier, the calibration half's summary of every statistic."""
+    out: dict = {"definitions": _definitions(), "source": str(d3_root), "tiers": {}}
+    for tier in TIERS:
+        calibration, _ = halves(d3_tier_boards(d3_root, tier))
+        samples = pooled_samples(measure(calibration))
+        out["tiers"][tier] = {
+            "boards": len(calibration),
+            "board_ids": [b.board_id for b in calibration],
+            "statistics": {name: summary(samples[name]) for name in STATISTICS},
+            "frequencies": {name: _frequencies(samples[name]) for name in DISCRETE},
+        }
+    return out
+
+
+def _frequencies(values: list[float]) -> dict[str, int]:
+    counts: dict[int, int] = {}
+    for value in values:
+        counts[int(value)] = counts.get(int(value), 0) + 1
+    return {str(k): counts[k] for k in sorted(counts)}
+
+
+def _definitions() -> dict:
+    return {
+        "row_number": "1-based position of a board among its tier's rows of D3's "
+                      "characteristics.csv, in that file's order (pads, nets, components, "
+                      "name); calibration half = odd row numbers (1, 3, 5, ...), held-out "
+                      "half = even",
+        "nets": "nets with >= 2 copper pads on the board (= characteristics.csv nets)",
+        "pads": "terminal pads: copper pads on those nets (= characteristics.csv pads, "
+                "but one board: 0388_kitspace_bomanz, see docs/realism.md)",
+        "components": "footprints on the board (= characteristics.csv components)",
+        "pads_per_net": "pad count of each net with >= 2 pads; the sample pools every net of "
+                        "every board (count = nets, not boards)",
+        "layers": "copper layers of the board's layer table (= characteristics.csv layers)",
+        "pad_density": "terminal pads per cm2 of the Edge.Cuts outline's area (holes cut "
+                       "out); boards whose outline closes nothing are left out",
+        "pad_pitch": "per footprint with >= 2 distinct copper pad centres the smallest "
+                     "centre distance (mm); per board the median; boards without such a "
+                     "footprint are left out",
+        "quantiles": "numpy.percentile, linear interpolation; frequencies: value -> count "
+                     "for the discrete layers and pads_per_net",
+        "ks": "two-sample Kolmogorov-Smirnov distance (sup of the gap between the empirical "
+              "CDFs) of the synthetic sample vs the held-out half; target <= 0.15 each",
+        "measure": "cd /work/wt/calib && PYTHONPATH=$PWD /work/main/.venv/bin/python "
+                   "bench/bench_realism.py --d3 /work/d3build --synthetic SET_DIR "
+                   "--config d2r-b --tier B --split train [--limit 512] [--md T.md]: the KS "
+                   "table vs the held-out half (branch calib; the library side is "
+                   "pcbdata.synthetic.board_statistics: board_statistics(path) -> the seven "
+                   "statistics of one board file, pooled_samples, ks_distance)",
+    }
+
+
+def ks_table(d3_root: Path, tiers: list[str], synthetic: list[BoardStatistics] | None,
+             half: str = "held-out") -> dict:
+    """Per tier and statistic: KS distance between the tier's `half` and the synthetic set
+    (None: the tier's calibration half against its held-out half, the distance that sampling
+    alone gives), with the 95 % critical value of the two sample sizes."""
+    table: dict = {}
+    for tier in tiers:
+        calibration, held_out = halves(d3_tier_boards(d3_root, tier))
+        compared = calibration if half == "calibration" and synthetic is not None else held_out
+        real = pooled_samples(measure(compared))
+        ours = pooled_samples(measure(calibration) if synthetic is None else synthetic)
+        counts = {name: [len(real[name]), len(ours[name])] for name in STATISTICS}
+        table[tier] = {"boards": len(compared), "counts": counts,
+                       "distances": {name: ks_distance(real[name], ours[name])
+                                     for name in STATISTICS},
+                       "critical_95": {name: _critical(*counts[name]) for name in STATISTICS}}
+    return table
+
+
+def _critical(n: int, m: int) -> float | None:
+    """The asymptotic 95 % critical value of the two-sample KS distance (independent draws;
+    the pooled nets of a board are not, so for pads per net it is only a guide)."""
+    return round(1.358 * math.sqrt((n + m) / (n * m)), 3) if n and m else None
+
+
+# --- difficulty: the agent's CP @1 on both sides ---------------------------------------
+
+def spread(items: list, count: int) -> list:
+    """`count` items evenly spread over `items` (all of them if there are no more): the first
+    N of a D3 tier would be its N smallest boards."""
+    if len(items) <= count:
+        return list(items)
+    last = len(items) - 1
+    return [items[round(i * last / (count - 1))] for i in range(count)]
+
+
+def difficulty(args, d3_root: Path, tier: str) -> dict:
+    """CP @1 of `args.agent` on `args.boards` synthetic boards (the split's first ones:
+    synthetic boards are drawn independently) and as many of the tier's `full` split, spread
+    over its table order. Runs and reports go under `args.work` (a rerun resumes)."""
+    work = Path(args.work)
+    real_ids = [b.board_id for b in spread(d3_tier_boards(d3_root, tier), args.boards)]
+    ours = synthetic_boards(Path(args.synthetic), args.config, args.split, args.boards)
+    sides = {"real": (d3_root, tier_config(tier), D3_SPLIT, real_ids),
+             "synthetic": (Path(args.synthetic), args.config, args.split,
+                           [b.board_id for b in ours])}
+    out = {}
+    for side, (root, config, split, ids) in sides.items():
+        suffix = "" if args.drc == "step" else f"-drc-{args.drc}"
+        runs = work / f"{side}-{config}-{args.agent}{suffix}"
+        _rollouts(root, config, split, ids, args.agent, runs, args.workers, args.drc)
+        out[side] = _cp_at1(root, config, split, ids, runs, work / f"{runs.name}-report",
+                            args.workers)
+        out[side].update(config=config, split=split)
+    out.update(agent=args.agent, drc=args.drc)
+    return out
+
+
+def _rollouts(root: Path, config: str, split: str, board_ids: list[str], agent: str,
+              runs: Path, workers: int, drc: str) -> None:
+    """One rollout (seed 0) per board, as `pcbdata rollout` runs them, for chosen boards."""
+    from pcbdata.agents.rollout import ROLLOUT_TIMEOUT, pending
+    from pcbdata.env.registry import env_id_for
+    from pcbdata.executors import resolve
+
+    todo = pending(board_ids, 1, runs)
+    env_kwargs = {"id": env_id_for(config), "config": config, "root": str(root.resolve()),
+                  "split": split, "drc": drc}
+    tasks = [(env_kwargs, agent, b, r, str(runs.resolve()), None) for b, r in todo]
+    if not tasks:
+        return
+    with resolve(None).pool(workers=max(1, min(workers, len(tasks))),
+                            task_timeout=ROLLOUT_TIMEOUT, tasks_per_worker=10**9,
+                            memory_limit_mb=0) as pool:
+        outcomes = pool.map("pcbdata.agents.rollout:rollout_task", tasks)
+        errors = [_report_rollout(done, len(tasks), config, todo[outcome.index][0], outcome)
+                  for done, outcome in enumerate(outcomes, 1)]
+    if all(errors):
+        raise SystemExit(f"bench_realism: every rollout on {config} failed: {errors[0]}")
+
+
+def _report_rollout(done: int, total: int, config: str, board_id: str, outcome) -> str | None:
+    """Prints one progress line; returns the error (None if the rollout ran)."""
+    what = "ok" if outcome.ok else f"failed: {outcome.error}"
+    print(f"  [{done}/{total}] {config} {board_id}: {what}", file=sys.stderr)
+    return None if outcome.ok else str(outcome.error)
+
+
+def _cp_at1(root: Path, config: str, split: str, board_ids: list[str], runs: Path,
+            report: Path, workers: int) -> dict:
+    """Mean CP @1 over the chosen boards (`pcbdata eval`; boards not chosen have no
+    rollout and are left out of the mean)."""
+    from pcbdata.evaluator.runs import evaluate_set
+
+    evaluate_set(root, config, split, report, runs=runs, k=1, workers=workers,
+                 progress=False)
+    with open(report / "per_board.csv", newline="", encoding="utf-8") as handle:
+        rows = {r["board_id"]: r for r in csv.DictReader(handle)}
+    cps = [float(rows[b]["cp"] or 0) for b in board_ids]
+    return {"boards": len(cps), "cp_at1": sum(cps) / len(cps) if cps else None,
+            "board_ids": board_ids}
+
+
+def markdown(report: dict) -> str:
+    tiers = list(report["ks"])
+    half = report.get("half", "held-out").replace("-", " ")
+    head = "| statistic | " + " | ".join(f"D3-{t} ({report['ks'][t]['boards']} {half})"
+                                          for t in tiers) + " |"
+    side = (f"`{report['config']}` ({report['synthetic_boards']} boards, split "
+            f"`{report['split']}`)" if report["synthetic_boards"]
+            else "each tier's calibration half")
+    lines = [f"{side}: KS distance vs the {half} half (95 % critical value); * above the "
+             f"target {KS_TARGET}", "", head,
+             "|---|" + "---:|" * len(tiers)]
+    for name in STATISTICS:
+        cells = [_cell(report["ks"][t]["distances"][name], report["ks"][t]["critical_95"][name])
+                 for t in tiers]
+        label = name + (" (all nets)" if name == PER_NET else "")
+        lines.append(f"| {label} | " + " | ".join(cells) + " |")
+    for tier, side in report.get("difficulty", {}).items():
+        real, ours = side["real"], side["synthetic"]
+        lines.append(f"\n{side['agent']} CP @1: D3-{tier} ({real['boards']} boards of "
+                     f"`{real['config']}/{real['split']}`) {_percent(real['cp_at1'])}, "
+                     f"`{ours['config']}` ({ours['boards']} boards) {_percent(ours['cp_at1'])}")
+    return "\n".join(lines) + "\n"
+
+
+def _percent(cp: float | None) -> str:
+    return "n/a" if cp is None else f"{100 * cp:.1f}"
+
+
+def _cell(distance: float | None, critical: float | None) -> str:
+    if distance is None:
+        return "n/a"
+    mark = "" if distance <= KS_TARGET else " *"
+    return f"{distance:.3f}{mark} ({critical:.2f})"
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = _parser().parse_args(argv)
+    d3_root = Path(args.d3)
+    if args.write_targets:
+        Path(args.write_targets).write_text(json.dumps(targets(d3_root), indent=1) + "\n")
+        print(f"wrote {args.write_targets}")
+        return
+    start = time.perf_counter()
+    report = {"machine": machine(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+              "load_average": os.getloadavg(), "d3": str(d3_root)}
+    if args.halves:
+        report.update(config="calibration half", split="odd rows", synthetic_boards=0,
+                      ks=ks_table(d3_root, args.tier, None))
+    elif not args.synthetic or not args.config:
+        raise SystemExit("bench_realism: give --synthetic and --config (or --halves, or "
+                         "--write-targets)")
+    else:
+        boards = synthetic_boards(Path(args.synthetic), args.config, args.split, args.limit)
+        report.update(config=args.config, split=args.split, synthetic_boards=len(boards),
+                      half=args.half, ks=ks_table(d3_root, args.tier, measure(boards), args.half))
+    if args.difficulty and not args.halves:
+        report["difficulty"] = {tier: difficulty(args, d3_root, tier) for tier in args.tier}
+    report["seconds"] = round(time.perf_counter() - start, 1)
+    text = markdown(report)
+    print(text)
+    if args.md:
+        Path(args.md).write_text(text)
+    if args.json:
+        Path(args.json).write_text(json.dumps(report, indent=1, sort_keys=True) + "\n")
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--d3", required=True, help="a D3 build (pcbdata build d3 --out DIR)")
+    parser.add_argument("--synthetic", help="a built synthetic set (pcbdata build ... --out DIR)")
+    parser.add_argument("--config", help="the set's config to measure, e.g. d2r-b or d2")
+    parser.add_argument("--split", default="train", help="its split (default: train)")
+    parser.add_argument("--limit", type=int, help="only the first N synthetic boards")
+    parser.add_argument("--tier", type=lambda s: s.upper().split(","), default=list(TIERS),
+                        help="tiers to compare with, e.g. B or A,B,C (default: all)")
+    parser.add_argument("--md", help="write the table as Markdown here")
+    parser.add_argument("--json", help="write the whole report as JSON here")
+    parser.add_argument("--half", choices=("held-out", "calibration"), default="held-out",
+                        help="the tier half to compare with (default: held-out, the SPEC's "
+                             "measure; calibration shows what tuning reached)")
+    parser.add_argument("--halves", action="store_true",
+                        help="compare each tier's calibration half with its held-out half "
+                             "instead of a synthetic set (the distance sampling alone gives)")
+    parser.add_argument("--write-targets", metavar="PATH",
+                        help="only write each tier's calibration-half summary (JSON)")
+    parser.add_argument("--difficulty", action="store_true",
+                        help="also the agent's CP @1 on the synthetic set vs the real tier")
+    parser.add_argument("--agent", default="scripted-shove", help="agent for --difficulty")
+    parser.add_argument("--boards", type=int, default=64, help="boards per side (--difficulty)")
+    parser.add_argument("--drc", choices=("step", "terminal"), default="step",
+                        help="the environment's DRC, as `pcbdata rollout --drc` (default: step)")
+    parser.add_argument("--workers", type=int, default=2, help="rollout and eval workers")
+    parser.add_argument("--work", default="/tmp/bench-realism",
+                        help="runs and eval reports of --difficulty (kept: a rerun resumes)")
+    return parser
+
+
+if __name__ == "__main__":
+    main()
