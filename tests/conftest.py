@@ -39,6 +39,15 @@ SMALLEST = 150   # the real subset: the boards with the fewest terminal pads ...
 SPREAD_EVERY = 25  # ... plus every 25th of the others by pads
 
 
+def pytest_sessionfinish(session, exitstatus):
+    """Workers killed by the tests (time limits, SIGKILL, Ray's shutdown) could not remove
+    their temp folders; the run removes them before it ends."""
+    from pcbdata.core.fsutil import sweep_owned_temp_folders
+
+    for kind in ("pool", "env"):
+        sweep_owned_temp_folders(kind)
+
+
 @pytest.fixture(scope="session")
 def kicad_pool():
     """One pool of KiCad worker processes shared by the whole test session."""

@@ -39,9 +39,10 @@ def test_temp_folders_of_killed_owners_are_swept(tmp_path, monkeypatch):
     dead = tmp_path / f"pcbdata-pool-{gone.stdout.strip()}-abc"
     alive = tmp_path / f"pcbdata-pool-{os.getpid()}-def"
     other_kind = tmp_path / f"pcbdata-env-{gone.stdout.strip()}-ghi"
-    for folder in (dead, alive, other_kind):
+    unmarked = tmp_path / "pcbdata-pool-12345678"  # a plain mkdtemp name: no owner, kept
+    for folder in (dead, alive, other_kind, unmarked):
         (folder / "stage").mkdir(parents=True)
     made = owned_temp_folder("pool")
     assert made.startswith(str(tmp_path / f"pcbdata-pool-{os.getpid()}-"))
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
-        [alive.name, other_kind.name, os.path.basename(made)])
+        [alive.name, other_kind.name, unmarked.name, os.path.basename(made)])

@@ -33,21 +33,29 @@ def owned_temp_folder(kind: str) -> str:
     Its owner removes it when done; one killed by a signal cannot, so the folders of the same
     kind whose owning process is gone are removed here first (a process of another user, or
     one still running, keeps its folder)."""
+    sweep_owned_temp_folders(kind)
+    return tempfile.mkdtemp(prefix=f"pcbdata-{kind}-{os.getpid()}-",
+                            dir=tempfile.gettempdir())
+
+
+def sweep_owned_temp_folders(kind: str) -> int:
+    """Removes the `owned_temp_folder`s of `kind` whose owning process is gone; their count."""
     prefix = f"pcbdata-{kind}-"
-    root = Path(tempfile.gettempdir())
+    removed = 0
     with contextlib.suppress(OSError):
-        for entry in root.iterdir():
+        for entry in Path(tempfile.gettempdir()).iterdir():
             owner = _owner_pid(entry.name, prefix)
             if owner is not None and not _process_exists(owner):
                 shutil.rmtree(entry, ignore_errors=True)
-    return tempfile.mkdtemp(prefix=f"{prefix}{os.getpid()}-", dir=root)
+                removed += 1
+    return removed
 
 
 def _owner_pid(name: str, prefix: str) -> int | None:
     if not name.startswith(prefix):
         return None
-    head = name[len(prefix):].split("-", 1)[0]
-    return int(head) if head.isdigit() else None
+    head, dash, _ = name[len(prefix):].partition("-")  # mkdtemp's own suffix holds no "-"
+    return int(head) if dash and head.isdigit() else None
 
 
 def _process_exists(pid: int) -> bool:
