@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field, fields
 
 from pcbdata.core.errors import GenerationError, UserError
 from pcbdata.core.rng import Stream, check_seed
@@ -14,6 +14,7 @@ from pcbdata.generators.base import (
     Instance,
     board_id,
 )
+from pcbdata.generators.params import GeneratorParams
 from pcbdata.model.board import Board, CopperLayer, Pad, PadKind, Rules, mm_to_nm
 
 _ATTEMPTS_PER_PAD = 500
@@ -32,7 +33,7 @@ def _short(value: float, needed: float) -> bool:
 
 
 @dataclass(frozen=True)
-class D2Params:
+class D2Params(GeneratorParams):
     width_mm: tuple[float, float] = (80.0, 120.0)
     height_mm: tuple[float, float] = (80.0, 120.0)
     net_counts: tuple[int, ...] = (4, 5, 6)
@@ -51,24 +52,11 @@ class D2Params:
     via_diameter_mm: float = 1.2
     via_drill_mm: float = 0.6
 
-    @classmethod
-    def keys(cls) -> list[str]:
-        return [f.name for f in fields(cls)]
+    LABEL = "D2"
 
-    @classmethod
-    def from_dict(cls, values: dict, where: str) -> D2Params:
-        """Typed parameters from preset/override values; `where` names their origin in errors."""
-        known = {f.name: f for f in fields(cls)}
-        kwargs = {}
-        for key, value in values.items():
-            if key not in known:
-                from difflib import get_close_matches
-
-                close = get_close_matches(key, known, n=1)
-                hint = f" (did you mean {close[0]!r}?)" if close else ""
-                raise UserError(f"{where}: unknown D2 parameter {key!r}{hint}")
-            kwargs[key] = _coerce(key, value, str(known[key].type), where)
-        return cls(**kwargs)
+    @staticmethod
+    def coerce(key: str, value, annotation: str, where: str):
+        return _coerce(key, value, annotation, where)
 
     def __post_init__(self) -> None:
         problems = self._problems()
@@ -209,9 +197,6 @@ class D2Params:
         b = self.placement_fraction * self.height_mm[0]
         return int(_FILL_LIMIT * (a + s) * (b + s) / (s * s * math.sqrt(3) / 2))
 
-    def as_dict(self) -> dict:
-        data = asdict(self)
-        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in data.items()}
 
 
 def _coerce(key: str, value, annotation: str, where: str):

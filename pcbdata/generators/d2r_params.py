@@ -2,12 +2,13 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields
+from dataclasses import dataclass, field
 
 from pcbdata.core.errors import UserError
 from pcbdata.generators import footprints as fp
 from pcbdata.generators.base import KICAD_HOLE_CLEARANCE_MM, KICAD_MIN_ANNULAR_MM, MAX_LENGTH_MM
 from pcbdata.generators.d2r_layout import OUTLINE_SHAPES
+from pcbdata.generators.params import GeneratorParams
 from pcbdata.model.board import nm_to_mm
 
 # Plated holes of the library (headers 1.0, JST PH 0.75, terminal blocks 1.3 mm): a class's
@@ -24,7 +25,7 @@ _CLASS_LENGTHS = ("clearance_mm", "track_width_mm", "via_diameter_mm", "via_dril
 
 
 @dataclass(frozen=True)
-class D2RParams:
+class D2RParams(GeneratorParams):
     """Every knob of a realistic board; lengths in mm. The defaults are level `b`'s (D3-B);
     docs/realistic.md explains each."""
 
@@ -76,24 +77,11 @@ class D2RParams:
     power_via_diameter_mm: float = 0.8
     power_via_drill_mm: float = 0.4
 
-    @classmethod
-    def keys(cls) -> list[str]:
-        return [f.name for f in fields(cls)]
+    LABEL = "d2r"
 
-    @classmethod
-    def from_dict(cls, values: dict, where: str) -> D2RParams:
-        """Typed parameters from preset/override values; `where` names their origin in errors."""
-        known = {f.name: f for f in fields(cls)}
-        kwargs = {}
-        for key, value in values.items():
-            if key not in known:
-                from difflib import get_close_matches
-
-                close = get_close_matches(key, known, n=1)
-                hint = f" (did you mean {close[0]!r}?)" if close else ""
-                raise UserError(f"{where}: unknown d2r parameter {key!r}{hint}")
-            kwargs[key] = _coerce(key, value, str(known[key].type), where)
-        return cls(**kwargs)
+    @staticmethod
+    def coerce(key: str, value, annotation: str, where: str):
+        return _coerce(key, value, annotation, where)
 
     def __post_init__(self) -> None:
         problems = self._ranges() or self._tables() or self._lengths() or self._rules()
@@ -219,9 +207,6 @@ class D2RParams:
         templates += [fp.radial(p) for p in fp.RADIAL_PITCHES]
         return nm_to_mm(min(fp.min_gap(t) for t in templates))
 
-    def as_dict(self) -> dict:
-        data = asdict(self)
-        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in data.items()}
 
 
 def _coerce(key: str, value, annotation: str, where: str):

@@ -1,0 +1,41 @@
+"""What every typed parameter set of a generator family shares: its names, reading it from a
+preset's or the user's (`--set`) values, and its plain form for the manifest."""
+from __future__ import annotations
+
+from dataclasses import asdict, fields
+from difflib import get_close_matches
+from typing import Any
+
+from pcbdata.core.errors import UserError
+
+
+class GeneratorParams:
+    """Base of a family's frozen parameter dataclass. A subclass names its family in errors
+    (`LABEL`) and checks one value against its annotation (`coerce`)."""
+
+    LABEL = ""
+
+    @staticmethod
+    def coerce(key: str, value: Any, annotation: str, where: str) -> Any:
+        raise NotImplementedError
+
+    @classmethod
+    def keys(cls) -> list[str]:
+        return [f.name for f in fields(cls)]  # type: ignore[arg-type]
+
+    @classmethod
+    def from_dict(cls, values: dict, where: str):
+        """Typed parameters from preset/override values; `where` names their origin in errors."""
+        known = {f.name: f for f in fields(cls)}  # type: ignore[arg-type]
+        kwargs = {}
+        for key, value in values.items():
+            if key not in known:
+                close = get_close_matches(key, known, n=1)
+                hint = f" (did you mean {close[0]!r}?)" if close else ""
+                raise UserError(f"{where}: unknown {cls.LABEL} parameter {key!r}{hint}")
+            kwargs[key] = cls.coerce(key, value, str(known[key].type), where)
+        return cls(**kwargs)
+
+    def as_dict(self) -> dict:
+        data = asdict(self)  # type: ignore[call-overload]
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in data.items()}
