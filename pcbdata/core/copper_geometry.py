@@ -10,7 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-Point = Sequence[int]
+Point = Sequence[float]  # integer nm for copper (exact there); mm floats for outlines
 Ring = Sequence[Point]
 
 
@@ -18,7 +18,7 @@ def _float(point: Point) -> tuple[float, float]:
     return float(point[0]), float(point[1])
 
 
-def _cross_dot(start: Point, mid: Point, end: Point) -> tuple[int, int]:
+def _cross_dot(start: Point, mid: Point, end: Point) -> tuple[float, float]:
     """Cross and dot product of (start - mid) and (end - mid), exact on integers."""
     ax, ay = start[0] - mid[0], start[1] - mid[1]
     bx, by = end[0] - mid[0], end[1] - mid[1]

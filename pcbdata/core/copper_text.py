@@ -14,7 +14,7 @@ MAX_NM = 2**31 - 1
 COPPER_HEADS = {"segment": "track", "arc": "arc", "via": "via"}
 _QUOTED = re.compile(rb'"[^"\\]*(?:\\.[^"\\]*)*"', re.DOTALL)
 _HEAD = re.compile(rb'\(\s*([^\s()"]+)')
-_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|[()]|[^\s()"]+')
+SEXPR_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|[()]|[^\s()"]+')
 _POINTS = ("start", "mid", "end", "at")
 
 
@@ -47,7 +47,7 @@ def _fields(block: str) -> tuple[list[str], dict[str, list[str]]]:
     fields: dict[str, list[str]] = {}
     depth = 0
     current: list[str] | None = None
-    for token in _TOKEN.findall(block):
+    for token in SEXPR_TOKEN.findall(block):
         if token == "(":
             depth += 1
             current = [] if depth == 2 else None

@@ -25,19 +25,21 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from pcbdata.core.copper_geometry import arc_polyline
+from pcbdata.core.copper_text import SEXPR_TOKEN
+
 #: The seven statistics, in the order of tables and reports.
 STATISTICS = ("nets", "pads", "components", "pads_per_net", "layers", "pad_density",
               "pad_pitch")
 #: KS-test pools: one value per board, except pads per net (every net of every board).
 PER_NET = "pads_per_net"
 
-_TOKEN = re.compile(r'"(?:[^"\\]|\\.)*"|[()]|[^\s()"]+')
 #: Edge.Cuts endpoints closer than this are one point (drawn outlines rarely meet exactly);
 #: the wider tolerance is tried only when nothing closes with the narrow one (outlines
 #: traced from a bitmap, with gaps of a tenth of a millimetre).
 SNAP_MM = (0.01, 0.2)
-#: Straight pieces per full turn when an arc or circle becomes a polyline.
-ARC_STEPS = 72
+#: Farthest an outline's polyline strays from its arcs and circles.
+ARC_TOLERANCE_MM = 0.005
 
 Sexpr = list  # nested lists of str atoms (quoted strings keep no quotes)
 
@@ -45,7 +47,7 @@ Sexpr = list  # nested lists of str atoms (quoted strings keep no quotes)
 def parse_sexpr(text: str) -> Sexpr:
     """The first expression of `text` as nested lists of atoms (strings unquoted)."""
     stack: list[list] = [[]]
-    for token in _TOKEN.findall(text):
+    for token in SEXPR_TOKEN.findall(text):
         if token == "(":
             stack.append([])
         elif token == ")":
@@ -317,35 +319,13 @@ def _pts_path(pts: Sexpr | None, closed: bool) -> list[tuple[float, float]]:
 
 
 def _circle(centre: tuple[float, float], radius: float) -> list[tuple[float, float]]:
-    steps = [2 * math.pi * i / ARC_STEPS for i in range(ARC_STEPS)]
-    ring = [(centre[0] + radius * math.cos(t), centre[1] + radius * math.sin(t)) for t in steps]
-    return [*ring, ring[0]]
+    on = (centre[0] + radius, centre[1])
+    return arc_polyline(on, (centre[0] - radius, centre[1]), on, ARC_TOLERANCE_MM)
 
 
 def _arc(a: tuple[float, float], m: tuple[float, float],
          b: tuple[float, float]) -> list[tuple[float, float]]:
-    """The arc from a through m to b as a polyline (a straight line if the three are in line)."""
-    centre = _circumcentre(a, m, b)
-    if centre is None:
-        return [a, b]
-    radius = math.dist(centre, a)
-    ta, tm, tb = (math.atan2(p[1] - centre[1], p[0] - centre[0]) for p in (a, m, b))
-    sweep = (tb - ta) % (2 * math.pi)
-    if (tm - ta) % (2 * math.pi) > sweep:  # m is not on the counter-clockwise way: go clockwise
-        sweep -= 2 * math.pi
-    n = max(2, int(abs(sweep) / (2 * math.pi) * ARC_STEPS) + 1)
-    inner = [(centre[0] + radius * math.cos(ta + sweep * i / n),
-              centre[1] + radius * math.sin(ta + sweep * i / n)) for i in range(1, n)]
-    return [a, *inner, b]
-
-
-def _circumcentre(a, m, b) -> tuple[float, float] | None:
-    d = 2 * (a[0] * (m[1] - b[1]) + m[0] * (b[1] - a[1]) + b[0] * (a[1] - m[1]))
-    if abs(d) < 1e-12:
-        return None
-    sa, sm, sb = (p[0] ** 2 + p[1] ** 2 for p in (a, m, b))
-    return ((sa * (m[1] - b[1]) + sm * (b[1] - a[1]) + sb * (a[1] - m[1])) / d,
-            (sa * (b[0] - m[0]) + sm * (a[0] - b[0]) + sb * (m[0] - a[0])) / d)
+    return arc_polyline(a, m, b, ARC_TOLERANCE_MM)
 
 
 # --- samples and distances ---------------------------------------------------------------
