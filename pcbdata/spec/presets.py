@@ -50,6 +50,15 @@ class D2Level:
 
 
 
+def _require_level(levels: dict[str, dict], name: str, family: str) -> None:
+    """UserError naming the closest level and every level, unless `name` is one."""
+    if name not in levels:
+        close = difflib.get_close_matches(name, list(levels), n=1, cutoff=0.3)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        ranked = sorted(levels, key=lambda n: levels[n]["rank"])
+        raise UserError(f"unknown {family} level {name!r}{hint} (levels: {', '.join(ranked)})")
+
+
 def d2_levels() -> dict[str, dict]:
     return dict(_load("d2_levels.toml")["levels"])
 
@@ -57,11 +66,7 @@ def d2_levels() -> dict[str, dict]:
 def d2_level(name: str, overrides: dict | None = None) -> D2Level:
     data = _load("d2_levels.toml")
     levels = data["levels"]
-    if name not in levels:
-        close = difflib.get_close_matches(name, list(levels), n=1, cutoff=0.3)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
-        ranked = sorted(levels, key=lambda n: levels[n]["rank"])
-        raise UserError(f"unknown D2 level {name!r}{hint} (levels: {', '.join(ranked)})")
+    _require_level(levels, name, "D2")
     spec = {k: v for k, v in levels[name].items() if k not in ("rank", "description", "version")}
     where = f"pcbdata/resources/presets/d2_levels.toml level {name!r}"
     D2Params.from_dict(spec, where)  # the preset alone must be valid
@@ -98,11 +103,7 @@ def d2r_level(name: str, overrides: dict | None = None) -> D2RLevel:
     """A realistic level (one per D3 tier), with `--set` overrides if any."""
     data = _load(_D2R_FILE)
     levels = data["levels"]
-    if name not in levels:
-        close = difflib.get_close_matches(name, list(levels), n=1, cutoff=0.3)
-        hint = f"; did you mean {close[0]!r}?" if close else ""
-        ranked = sorted(levels, key=lambda n: levels[n]["rank"])
-        raise UserError(f"unknown d2r level {name!r}{hint} (levels: {', '.join(ranked)})")
+    _require_level(levels, name, "d2r")
     entry = levels[name]
     spec = {k: v for k, v in entry.items() if k not in _D2R_META}
     where = f"pcbdata/resources/presets/{_D2R_FILE} level {name!r}"
