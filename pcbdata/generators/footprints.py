@@ -159,10 +159,7 @@ def pin_header(rows: int, n: int) -> Template:
 
 def jst_ph(n: int) -> Template:
     """A 2.0 mm pitch through-hole wire-to-board connector."""
-    first = (n - 1) * 2.0 / 2
-    pads = [_pad(i + 1, -first + 2.0 * i, 0, "rect" if i == 0 else "circle", 1.2, 1.2, 0.75)
-            for i in range(n)]
-    return _template(f"JST_PH_1x{n:02d}_P2.0", "connector", pads)
+    return _template(f"JST_PH_1x{n:02d}_P2.0", "connector", _tht_row(n, 2.0, 1.2, 0.75))
 
 
 def jst_sh(n: int) -> Template:
@@ -177,10 +174,14 @@ def jst_sh(n: int) -> Template:
 
 def terminal_block(n: int) -> Template:
     """A 5.08 mm pitch screw terminal."""
-    first = (n - 1) * 5.08 / 2
-    pads = [_pad(i + 1, -first + 5.08 * i, 0, "rect" if i == 0 else "circle", 2.6, 2.6, 1.3)
+    return _template(f"TerminalBlock_1x{n:02d}_P5.08", "connector", _tht_row(n, 5.08, 2.6, 1.3))
+
+
+def _tht_row(n: int, pitch: float, size: float, drill: float) -> list:
+    """n through-hole pads in a row centred on the origin, pin 1 square."""
+    first = (n - 1) * pitch / 2
+    return [_pad(i + 1, -first + pitch * i, 0, "rect" if i == 0 else "circle", size, size, drill)
             for i in range(n)]
-    return _template(f"TerminalBlock_1x{n:02d}_P5.08", "connector", pads)
 
 
 def mounting_hole(drill_mm: float) -> Template:
