@@ -103,23 +103,16 @@ class D2RParams(GeneratorParams):
         if not 0.5 <= self.pads_per_component_median <= 100:
             out.append(f"pads_per_component_median must be from 0.5 to 100, got "
                        f"{self.pads_per_component_median}")
-        low, high = self.pads_range
-        if not 2 <= low <= high <= 100_000:
-            out.append(f"pads_range must be [low, high] with 2 <= low <= high <= 100000, got "
-                       f"{[low, high]}")
         for name in _FRACTIONS:
             if not 0 <= getattr(self, name) <= 1:
                 out.append(f"{name} must be in [0, 1], got {getattr(self, name)}")
-        for name, lo_bound, hi_bound in (("fill_range", 0.01, 2.0), ("aspect_range", 1.0, 5.0),
-                                         ("corner_mm", 0.1, 20.0)):
+        for name, lo_bound, hi_bound in (("pads_range", 2, 100_000), ("fill_range", 0.01, 2.0),
+                                         ("aspect_range", 1.0, 5.0), ("corner_mm", 0.1, 20.0),
+                                         ("header_pins", 2, 40)):
             lo, hi = getattr(self, name)
             if not lo_bound <= lo <= hi <= hi_bound:
                 out.append(f"{name} must be [low, high] with {lo_bound:g} <= low <= high <= "
                            f"{hi_bound:g}, got {[lo, hi]}")
-        lo, hi = self.header_pins
-        if not 2 <= lo <= hi <= 40:
-            out.append(f"header_pins must be [low, high] with 2 <= low <= high <= 40, got "
-                       f"{[lo, hi]}")
         if not self.power_rails or min(self.power_rails) < 0 or max(self.power_rails) > 4:
             out.append(f"power_rails must list rail counts from 0 to 4, got "
                        f"{list(self.power_rails)}")
