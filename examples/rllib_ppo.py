@@ -1,32 +1,26 @@
-"""PPO from RLlib on the routing environment, through its Gymnasium id, on a Ray cluster.
+"""PPO from RLlib on the routing environment's RL wrapper, through its Gymnasium id, on Ray.
 
-    pip install 'ray[rllib]' torch            # RLlib needs a deep-learning framework
-    python examples/rllib_ppo.py --env-runners 4 --iterations 10 [--address HEAD_IP:6379]
+    pip install 'ray[rllib]' torch            # RLlib and a deep-learning framework
+    python examples/rllib_ppo.py --check-env  # the wrapped environment alone, no RLlib
+    python examples/rllib_ppo.py --env-runners 1 --iterations 3 [--address HEAD_IP:6379]
 
 Each RLlib EnvRunner (a Ray actor, on whichever node Ray places it) makes its environment with
-`make_env` below: `gym.make("pcbdata/Route-d2-v2", ...)`, D2 boards generated on the fly (no
-built set needed), so each EnvRunner owns one KiCad worker process, started at its first
-reset. The learner trains on what the EnvRunners send back. See docs/ray.md ("RLlib").
+`make_env` below: `gym.make("pcbdata/RouteRL-d2-v2", ...)` (the RL wrapper, docs/env_rl.md),
+D2 boards generated on the fly (no built set needed), KiCad's DRC only at the end of an episode,
+short episodes. Each EnvRunner owns one KiCad worker process, started at its first reset.
+The learner (RLlib's new API stack, PPO, default MLP model) trains in the driver on what the
+EnvRunners send back. `bench/bench_rllib.py` times this loop; its figures are in docs/ray.md
+("RLlib").
 
-RLlib's default models take a flat observation (Box) and a Discrete or MultiDiscrete action;
-the environment's are nested dicts. This example flattens the observation with Gymnasium's
-`FlattenObservation` (float32) and maps a MultiDiscrete action [type, net, candidate, mode]
-onto the environment's Dict action. It ignores the action masks (`info["action_mask"]`): a
-masked action is a no-op with the reason in `info["rejected"]`, so PPO learns to avoid them
-slowly. `pcbdata.env.wrappers.rl` (a wrapper with fixed-size arrays, a MultiDiscrete action and the
-masks in the observation, on its way on another branch) is the intended wrapper; use it in
-place of `flat_env` once it lands.
-
-Not run here: RLlib needs torch, which this machine (and CI) does not install. What was
-checked: the API names against the RLlib source shipped in the installed Ray 2.60 wheel and
-RLlib's documentation (new API stack, the default in Ray 2.60: `PPOConfig().environment(env,
-env_config=...)`, `.env_runners(num_env_runners=..., num_envs_per_env_runner=...)`,
-`.training(lr=..., train_batch_size_per_learner=..., minibatch_size=..., num_epochs=...)`,
-`.debugging(seed=...)`, `.build_algo()`, `algo.train()`, the result keys
-`env_runners/episode_return_mean`; an env registered with `ray.tune.registry.register_env`
-is made on each EnvRunner by calling the creator with an `EnvContext`, a dict of
-`env_config`); and `make_env` itself, run without RLlib: `python examples/rllib_ppo.py
---check-env` makes the wrapped environment and steps it with sampled actions.
+What this example ignores: RLlib's default model takes a flat Box observation, so the wrapper's
+Dict observation is flattened (Gymnasium's `FlattenObservation`, then float32) and the masks in
+it (`action_mask`, `index_mask`, `mode_mask`) are only more inputs; nothing masks the policy's
+logits. The action stays the wrapper's `MultiDiscrete([7, K, 3])`, drawn as three independent
+parts, so many actions are masked ones: each is a rejected no-op that uses up a step (the
+reason in `info["rejected"]`), and PPO can only learn to avoid them slowly. No entity structure
+either: the MLP sees the entity table as one long vector. It shows RLlib's PPO training on the
+environment, not a good router. pcbdata's own learner (`pcbdata train`,
+docs/learn.md) is the intended one: masked, autoregressive actions over the entity table.
 """
 from __future__ import annotations
 
@@ -35,86 +29,84 @@ import argparse
 import gymnasium as gym
 import numpy as np
 
-ENV_ID = "pcbdata/Route-d2-v2"
-#: Options of every EnvRunner's environment (see docs/env.md): short episodes, KiCad's DRC only
-#: at the end of an episode (the cheaper setting for training), 1000 train boards.
+ENV_ID = "pcbdata/RouteRL-d2-v2"
+#: Options of every EnvRunner's environment (docs/env.md): 1000 train boards generated on the
+#: fly, short episodes, KiCad's DRC only at the end of an episode (the cheaper setting).
 ENV_CONFIG = {"split": "train", "count": 1000, "max_steps": 64, "drc": "terminal"}
 
 
-class MultiDiscreteActions(gym.ActionWrapper):
-    """The environment's Dict action {type, net, candidate, mode} as MultiDiscrete([7, nets,
-    candidates, 3]). (`pcbdata.env.wrappers.rl` will do this, with masks.)"""
-
-    KEYS = ("type", "net", "candidate", "mode")
-
-    def __init__(self, env: gym.Env):
-        super().__init__(env)
-        spaces = env.action_space.spaces  # type: ignore[attr-defined]
-        self.action_space = gym.spaces.MultiDiscrete([spaces[k].n for k in self.KEYS])
-
-    def action(self, action):
-        return {key: int(value) for key, value in zip(self.KEYS, action, strict=True)}
-
-
-def flat_env(env: gym.Env) -> gym.Env:
-    """A flat float32 Box observation and a MultiDiscrete action, for RLlib's default models."""
-    env = gym.wrappers.FlattenObservation(env)
-    env = gym.wrappers.DtypeObservation(env, np.float32)
-    return MultiDiscreteActions(env)
+def flat_observations(env: gym.Env) -> gym.Env:
+    """The Dict observation as one float32 vector, for RLlib's default models."""
+    flat = gym.wrappers.FlattenObservation(env)
+    low, high = flat.observation_space.low, flat.observation_space.high  # type: ignore[attr-defined]
+    space = gym.spaces.Box(low.astype(np.float32), high.astype(np.float32), dtype=np.float32)
+    return gym.wrappers.TransformObservation(flat, lambda obs: obs.astype(np.float32), space)
 
 
 def make_env(env_config) -> gym.Env:
-    """RLlib's env creator: runs in each EnvRunner's process, so it imports `pcbdata.env` there
-    (which registers the Gymnasium ids in that process) and makes the environment by its id.
-    `env_config` is RLlib's EnvContext: a dict of `ENV_CONFIG` (plus worker_index and
-    num_workers as attributes)."""
-    import pcbdata.env  # noqa: F401 - registers pcbdata/Route-*-v2 in this process
+    """RLlib's env creator. It runs in each EnvRunner's process, so it imports `pcbdata.env`
+    there (Gymnasium's registry is per process; the import registers the ids). `env_config` is
+    RLlib's EnvContext: a dict of `ENV_CONFIG` (with worker_index as an attribute)."""
+    import pcbdata.env  # noqa: F401 - registers pcbdata/RouteRL-*-v2 in this process
 
-    return flat_env(gym.make(ENV_ID, **dict(env_config)))
+    return flat_observations(gym.make(ENV_ID, **dict(env_config)))
 
 
-def check_env(steps: int = 20) -> None:
+def check_env(steps: int = 20) -> dict:
     """Without RLlib: the wrapped environment resets and steps with sampled actions."""
     env = make_env(ENV_CONFIG)
     try:
-        obs, info = env.reset(seed=0)
-        assert env.observation_space.contains(obs), "observation outside its space"
-        total = 0.0
+        obs, _ = env.reset(seed=0)
+        if not env.observation_space.contains(obs):
+            raise AssertionError("observation outside its space")
+        total, rejected = 0.0, 0
         for _ in range(steps):
             obs, reward, terminated, truncated, info = env.step(env.action_space.sample())
             total += float(reward)
+            rejected += bool(info["rejected"])
             if terminated or truncated:
-                obs, info = env.reset()
-        print(f"ok: observation {env.observation_space.shape} {env.observation_space.dtype}, "
-              f"action {env.action_space}, {steps} steps, reward {total:.3f}")
+                obs, _ = env.reset()
+        figures = {"observation": list(env.observation_space.shape),
+                   "dtype": str(env.observation_space.dtype), "action": str(env.action_space),
+                   "steps": steps, "rejected": rejected, "reward": round(total, 3)}
+        print("ok:", figures)
+        return figures
     finally:
         env.close()
 
 
-def train(address: str | None, env_runners: int, iterations: int) -> None:
-    import ray
+def ppo_config(env_runners: int, train_batch: int, seed: int = 0):
+    """RLlib's PPO (new API stack) on `ENV_ID`, registered with Ray Tune's registry under the
+    environment's own id: RLlib ships the creator to every EnvRunner."""
     from ray.rllib.algorithms.ppo import PPOConfig
+    from ray.rllib.core.rl_module.default_model_config import DefaultModelConfig
     from ray.tune.registry import register_env
 
-    ray.init(address=address)
-    # Registered with RLlib under the environment's own Gymnasium id: RLlib ships the creator
-    # to every EnvRunner (Gymnasium's registry is per process and does not travel).
     register_env(ENV_ID, make_env)
-    config = (
+    return (
         PPOConfig()
         .environment(ENV_ID, env_config=ENV_CONFIG)
-        .env_runners(num_env_runners=env_runners, num_envs_per_env_runner=1)
-        .training(lr=3e-4, train_batch_size_per_learner=1024, minibatch_size=128, num_epochs=4)
-        .debugging(seed=0)
+        .env_runners(num_env_runners=env_runners, num_envs_per_env_runner=1,
+                     rollout_fragment_length="auto")
+        .learners(num_learners=0)  # the learner trains in the driver
+        .rl_module(model_config=DefaultModelConfig(fcnet_hiddens=[64, 64]))
+        .training(lr=3e-4, train_batch_size_per_learner=train_batch,
+                  minibatch_size=min(128, train_batch), num_epochs=4)
+        .debugging(seed=seed)
     )
-    algo = config.build_algo()
+
+
+def train(address: str | None, env_runners: int, iterations: int, train_batch: int) -> None:
+    import ray
+
+    ray.init(address=address)
+    algo = ppo_config(env_runners, train_batch).build_algo()
     try:
         for iteration in range(iterations):
-            result = algo.train()
-            runners = result.get("env_runners", {})
-            print(f"iteration {iteration}: episode return mean "
-                  f"{runners.get('episode_return_mean')}, episode length mean "
-                  f"{runners.get('episode_len_mean')}", flush=True)
+            runners = algo.train().get("env_runners", {})
+            print(f"iteration {iteration}: env steps {runners.get('num_env_steps_sampled')}, "
+                  f"episodes {runners.get('num_episodes')}, episode return mean "
+                  f"{runners.get('episode_return_mean')}", flush=True)
     finally:
         algo.stop()
         ray.shutdown()
@@ -123,15 +115,17 @@ def train(address: str | None, env_runners: int, iterations: int) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--address", help="Ray cluster (default: RAY_ADDRESS, else local)")
-    parser.add_argument("--env-runners", type=int, default=2, help="RLlib EnvRunners (actors)")
-    parser.add_argument("--iterations", type=int, default=5, help="training iterations")
+    parser.add_argument("--env-runners", type=int, default=1, help="RLlib EnvRunners (actors)")
+    parser.add_argument("--iterations", type=int, default=3, help="training iterations")
+    parser.add_argument("--train-batch", type=int, default=512,
+                        help="env steps per training iteration")
     parser.add_argument("--check-env", action="store_true",
                         help="only make the wrapped environment and step it (no RLlib needed)")
     args = parser.parse_args()
     if args.check_env:
         check_env()
     else:
-        train(args.address, args.env_runners, args.iterations)
+        train(args.address, args.env_runners, args.iterations, args.train_batch)
 
 
 if __name__ == "__main__":
