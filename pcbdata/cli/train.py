@@ -10,7 +10,8 @@ HELP = "train the learned router: clone the scripted agent, then PPO (needs the 
 OPTIONS = {
     "config": "board config (default: d2)", "seed": "seed of everything (default: 0)",
     "dim": "network width", "max_steps": "episode step limit", "drc": "step or terminal",
-    "bc_boards": "train boards the scripted agent plays for cloning (0: no cloning)",
+    "teacher": "agent cloned: scripted-shove (default) or scripted",
+    "bc_boards": "train boards the teacher plays for cloning (0: no cloning)",
     "bc_epochs": "cloning epochs", "train_boards": "train boards PPO draws from",
     "updates": "PPO updates", "envs": "vector environments (spawned processes)",
     "rollout_steps": "steps per environment and update", "ppo_epochs": "epochs per update",
@@ -19,9 +20,11 @@ OPTIONS = {
     "clip": "PPO ratio clip", "entropy": "entropy bonus",
     "val_boards": "validation boards (greedy)", "val_every": "validate every N updates",
     "checkpoint_every": "checkpoint every N updates",
+    "sampling_temperature": "temperature of the checkpoints' sampled @k rollouts (default 8)",
 }
-TYPES = {"config": str, "drc": str, "lr_bc": float, "lr_ppo": float, "gamma": float,
-         "lam": float, "clip": float, "entropy": float}
+TYPES = {"config": str, "drc": str, "teacher": str, "lr_bc": float, "lr_ppo": float,
+         "gamma": float, "lam": float, "clip": float, "entropy": float,
+         "sampling_temperature": float}
 
 
 def register(parser) -> None:

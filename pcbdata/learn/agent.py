@@ -1,6 +1,8 @@
 """The `policy` agent of `pcbdata rollout` (`--agent policy`: the shipped checkpoint;
 `--agent policy:PATH`: any checkpoint). Every action comes from the network: argmax for
-rollout 0, masked sampling seeded by the rollout number otherwise (the @k rollouts)."""
+rollout 0, masked sampling seeded by the rollout number otherwise (the @k rollouts), with the
+logits divided by the checkpoint's `sampling_temperature` (1 when it names none): a cloned
+policy is so sure of itself that untempered samples repeat the argmax, and @k gains nothing."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,32 +12,41 @@ from pcbdata.env.wrappers import features
 from pcbdata.env.wrappers.rl import env_action
 from pcbdata.learn import batch as batching
 from pcbdata.learn.checkpoint import load_policy
+from pcbdata.learn.derived import EpisodeReader
 from pcbdata.learn.policy import device, to_tensors
 
 
 class PolicyAgent:
     """Reads the environment's own observation and `info["action_mask"]`."""
 
-    def __init__(self, seed: int = 0, path: str | None = None):
+    def __init__(self, seed: int = 0, path: str | None = None,
+                 temperature: float | None = None):
         self.device = device()
         self.policy, self.record = load_policy(path, self.device)
         self.greedy = seed == 0
         self.generator = torch.Generator(device=self.device).manual_seed(seed)
+        self.temperature = float(self.record.get("sampling_temperature", 1.0)
+                                 if temperature is None else temperature)
         self._layout: features.Layout | None = None
         self._static: features.StaticRows | None = None
+        self.reader = EpisodeReader()
 
     def act(self, obs, info) -> dict:
         if int(obs["step"]) == 0 or self._layout is None:  # a new episode
             self._layout = batching.layout_of(obs)
             self._static = features.static_rows(obs, self._layout)
+            self.reader.reset()
         wrapped = batching.wrapped_observation(obs, info["action_mask"], self._layout,
                                                self._static)
         return env_action(self.triple(wrapped))
 
     def triple(self, wrapped: dict) -> np.ndarray:
-        """The (type, index, mode) the network picks for one RL-wrapper observation."""
-        items = batching.collate([batching.compact(wrapped)])
+        """The (type, index, mode) the network picks for one RL-wrapper observation (the
+        reader's memory records it as taken)."""
+        items = batching.collate([batching.compact(wrapped, self.reader.read(wrapped))])
         with torch.no_grad():
             actions, _, _ = self.policy.act(to_tensors(items, self.device), self.greedy,
-                                            self.generator)
-        return actions[0].cpu().numpy().astype(np.int64)
+                                            self.generator, self.temperature)
+        chosen = actions[0].cpu().numpy().astype(np.int64)
+        self.reader.acted(chosen)
+        return chosen

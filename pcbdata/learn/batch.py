@@ -1,9 +1,11 @@
 """Observations as the network reads them: only the rows that hold an entity, padded per batch.
 
 The RL wrapper's table has a row for every capacity slot (1730 on D2, most of them padding); the
-network reads the net and candidate blocks whole (the pointer heads index them by position)
-and, after them, only the valid rows of the other families, so a 20-pad board costs about 100
-rows, not 1730. Pure numpy: `compact` runs in the environment loop, `collate` pads a batch.
+network reads the net and candidate blocks whole (the pointer heads index them by position),
+then the head row (at position `n_nets + n_cands`, read by the heads beside the pooled summary)
+and only the valid rows of the other families, so a 20-pad board costs about 100 rows, not
+1730. Each row carries the derived columns of `pcbdata.learn.derived`. Pure numpy: `compact`
+runs in the environment loop, `collate` pads a batch.
 """
 from __future__ import annotations
 
@@ -14,13 +16,15 @@ import numpy as np
 
 from pcbdata.env.wrappers import features
 from pcbdata.env.wrappers.rl import joint_masks
+from pcbdata.learn import derived
 
-#: Input width per row: the asinh of the 14 columns, the family one-hot, "of the head's net".
+#: Input width per row: the asinh of the 14 columns, the family one-hot, "of the head's net",
+#: the derived columns.
 N_FAMILIES = len(features.FAMILIES)
-WIDTH = len(features.COLUMNS) + N_FAMILIES + 1
+WIDTH = len(features.COLUMNS) + N_FAMILIES + 1 + derived.WIDTH
 
 
-def _rows(obs: Mapping[str, np.ndarray]) -> np.ndarray:
+def _rows(obs: Mapping[str, np.ndarray], extra: np.ndarray) -> np.ndarray:
     """Per-row inputs; the step counters are zeroed: they depend on max_steps, which a rollout
     may set differently from training."""
     table = np.asarray(obs["entities"], dtype=np.float32).copy()
@@ -31,19 +35,24 @@ def _rows(obs: Mapping[str, np.ndarray]) -> np.ndarray:
     head_net = nets[types == features.HEAD, 0]
     mine = (nets[:, 0] >= 0) & (nets[:, 0] == (head_net[0] if len(head_net) else -1))
     onehot = np.eye(N_FAMILIES, dtype=np.float32)[types]
-    return np.concatenate((np.arcsinh(table), onehot, mine[:, None].astype(np.float32)), axis=1)
+    return np.concatenate((np.arcsinh(table), onehot, mine[:, None].astype(np.float32), extra),
+                          axis=1)
 
 
-def compact(obs: Mapping[str, np.ndarray]) -> dict[str, Any]:
-    """One observation (the RL wrapper's dict): net rows, candidate rows, then the other
-    families' valid rows; `valid` marks rows holding an entity."""
+def compact(obs: Mapping[str, np.ndarray], extra: np.ndarray | None = None) -> dict[str, Any]:
+    """One observation (the RL wrapper's dict) and its derived columns (`EpisodeReader.read`;
+    None: zeros, as for an agent with no memory): net rows, candidate rows, the head row, then
+    the other families' valid rows; `valid` marks rows holding an entity."""
     types = np.asarray(obs["entity_type"])
     valid = np.asarray(obs["entity_mask"]).astype(bool)
-    pointer = (types == features.NET) | (types == features.CANDIDATE)
+    if extra is None:
+        extra = np.zeros((len(types), derived.WIDTH), dtype=np.float32)
+    first = (types == features.NET) | (types == features.CANDIDATE) | (types == features.HEAD)
     order = np.concatenate((np.flatnonzero(types == features.NET),
                             np.flatnonzero(types == features.CANDIDATE),
-                            np.flatnonzero(~pointer & valid)))
-    return {"x": _rows(obs)[order], "valid": valid[order],
+                            np.flatnonzero(types == features.HEAD),
+                            np.flatnonzero(~first & valid)))
+    return {"x": _rows(obs, extra)[order], "valid": valid[order],
             "n_nets": np.int64((types == features.NET).sum()),
             "n_cands": np.int64((types == features.CANDIDATE).sum()),
             "index_mask": np.asarray(obs["index_mask"]).astype(bool),

@@ -12,6 +12,8 @@ from pcbdata.core.errors import UserError
 from pcbdata.learn.policy import SetPolicy
 
 SHIPPED = "d2.pt"
+#: The network's inputs and layers; a checkpoint of another format cannot be read.
+FORMAT = 2
 
 
 def shipped_path() -> Path:
@@ -23,7 +25,7 @@ def save_policy(policy: SetPolicy, path: Path, record: dict) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.tmp")
     state = {k: v.detach().cpu() for k, v in policy.state_dict().items()}
-    torch.save({"format": 1, "dim": policy.dim, "state": state, "record": record}, tmp)
+    torch.save({"format": FORMAT, "dim": policy.dim, "state": state, "record": record}, tmp)
     os.replace(tmp, path)
 
 
@@ -33,10 +35,16 @@ def load_policy(path: Path | str | None = None, device: torch.device | None = No
     path = Path(path) if path is not None else shipped_path()
     try:
         data = torch.load(path, map_location="cpu", weights_only=True)
+        if data.get("format") != FORMAT:
+            raise UserError(f"{path}: a policy checkpoint of format {data.get('format')}, "
+                            f"this pcbdata reads format {FORMAT} (other inputs and layers): "
+                            "train it again with this version")
         policy = SetPolicy(dim=int(data["dim"]))
         policy.load_state_dict(data["state"])
     except FileNotFoundError:
         raise UserError(f"{path}: no such checkpoint") from None
+    except UserError:
+        raise
     except Exception as exc:  # noqa: BLE001 - any unreadable or foreign file
         raise UserError(f"{path}: not a pcbdata policy checkpoint ({exc})") from None
     return policy.to(device or torch.device("cpu")).eval(), dict(data.get("record", {}))

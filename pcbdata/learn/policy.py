@@ -1,7 +1,8 @@
 """The set policy (docs/learn.md): the same weights for any board size.
 
 Rows are embedded one by one, then two DeepSets rounds (each row sees a masked max- and
-mean-pool of all rows) give row features and a board summary. Heads, autoregressive:
+mean-pool of all rows) give row features and a board summary (the pools and the head row,
+which carries the agent's memory: `pcbdata.learn.derived`). Heads, autoregressive:
 type from the summary (masked by the types that have an allowed index), a pointer over the
 net rows (`net_select`) or the candidate rows (`start_route`, `make_line`, `make_via`) queried by
 summary and type, the mode from summary and type; each masked by that type's row of
@@ -42,7 +43,7 @@ class SetPolicy(nn.Module):
         self.embed = _mlp(WIDTH, dim, dim)
         self.round1 = _mlp(3 * dim, dim, dim)
         self.round2 = _mlp(3 * dim, dim, dim)
-        self.summary = _mlp(2 * dim, dim, dim)
+        self.summary = _mlp(3 * dim, dim, dim)
         self.type_head = nn.Linear(dim, N_TYPES)
         self.type_embed = nn.Embedding(N_TYPES, dim)
         self.query = _mlp(2 * dim, dim, dim)
@@ -57,7 +58,8 @@ class SetPolicy(nn.Module):
         for layer in (self.round1, self.round2):
             g = _pool(h, valid).unsqueeze(1).expand(-1, h.shape[1], -1)
             h = h + torch.relu(layer(torch.cat((h, g), dim=-1)))
-        return h, torch.relu(self.summary(_pool(h, valid)))
+        head = h[:, batch["n_nets"] + batch["n_cands"]]
+        return h, torch.relu(self.summary(torch.cat((_pool(h, valid), head), dim=-1)))
 
     def type_logits(self, s: torch.Tensor, batch: dict) -> torch.Tensor:
         allowed = batch["index_mask"].any(dim=-1)
@@ -84,12 +86,15 @@ class SetPolicy(nn.Module):
         rows = batch["mode_mask"][torch.arange(len(kind)), kind]
         return logits.masked_fill(~rows, NEG)
 
-    def act(self, batch: dict, greedy: bool = False, generator: torch.Generator | None = None):
-        """(actions [B, 3], log-probabilities [B], values [B]) drawn (or argmax) head by head."""
+    def act(self, batch: dict, greedy: bool = False, generator: torch.Generator | None = None,
+            temperature: float = 1.0):
+        """(actions [B, 3], log-probabilities [B], values [B]) drawn (or argmax) head by head;
+        `temperature` divides the logits before sampling (masked entries stay impossible); the
+        log-probabilities are the untempered policy's."""
         h, s = self.encode(batch)
-        kind = _choose(self.type_logits(s, batch), greedy, generator)
-        index = _choose(self.index_logits(h, s, kind, batch), greedy, generator)
-        mode = _choose(self.mode_logits(s, kind, batch), greedy, generator)
+        kind = _choose(self.type_logits(s, batch), greedy, generator, temperature)
+        index = _choose(self.index_logits(h, s, kind, batch), greedy, generator, temperature)
+        mode = _choose(self.mode_logits(s, kind, batch), greedy, generator, temperature)
         actions = torch.stack((kind, index, mode), dim=-1)
         logp, _ = self._logp(h, s, actions, batch)
         return actions, logp, self.value_head(s).squeeze(-1)
@@ -113,10 +118,11 @@ class SetPolicy(nn.Module):
         return logp, entropy
 
 
-def _choose(logits: torch.Tensor, greedy: bool, generator) -> torch.Tensor:
+def _choose(logits: torch.Tensor, greedy: bool, generator, temperature: float = 1.0
+            ) -> torch.Tensor:
     if greedy:
         return logits.argmax(dim=-1)
-    probs = torch.softmax(logits, dim=-1)
+    probs = torch.softmax(logits / temperature, dim=-1)
     return torch.multinomial(probs, 1, generator=generator).squeeze(-1)
 
 

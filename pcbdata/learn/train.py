@@ -20,42 +20,46 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from pcbdata.agents.scripted import ScriptedAgent
+from pcbdata.agents.scripted import ScriptedAgent, ShovingScriptedAgent
 from pcbdata.core.errors import UserError
 from pcbdata.env.wrappers import features
 from pcbdata.env.wrappers.rl import CANDIDATE_INDEXED, MODED, NET_INDEXED, make_rl_env
 from pcbdata.learn import batch as batching
 from pcbdata.learn.checkpoint import save_policy
 from pcbdata.learn.curve import draw_curve
+from pcbdata.learn.derived import EpisodeReader
 from pcbdata.learn.policy import SetPolicy, device, to_tensors
 
 
 @dataclass(frozen=True)
 class Settings:
-    """Everything a run depends on (recorded in settings.json; a resume must match)."""
+    """Everything a run depends on (recorded in settings.json; a resume must match). The
+    defaults are the shipped checkpoint's run (its model card)."""
 
     config: str = "d2"
     seed: int = 0
     dim: int = 64
     max_steps: int = 60
     drc: str = "terminal"
-    bc_boards: int = 64  # D2-train boards the scripted agent plays for cloning
+    teacher: str = "scripted-shove"  # the agent cloned: scripted or scripted-shove
+    bc_boards: int = 512  # train boards the teacher plays for cloning
     bc_epochs: int = 20
-    train_boards: int = 512  # D2-train boards PPO draws from
-    updates: int = 50
+    train_boards: int = 4096  # train boards PPO draws from
+    updates: int = 200
     envs: int = 2
     rollout_steps: int = 128  # per environment and update
     ppo_epochs: int = 3
     minibatch: int = 64
     lr_bc: float = 1e-3
-    lr_ppo: float = 1e-4
+    lr_ppo: float = 3e-5  # small: PPO starts from the cloned policy and must not undo it
     gamma: float = 0.99
     lam: float = 0.95
     clip: float = 0.2
     entropy: float = 0.005
-    val_boards: int = 16  # D2-validation boards, greedy
-    val_every: int = 5
-    checkpoint_every: int = 10
+    val_boards: int = 32  # validation boards, greedy
+    val_every: int = 10
+    checkpoint_every: int = 20
+    sampling_temperature: float = 8.0  # of the checkpoints' @k sampling (pcbdata.learn.agent)
 
 
 def env_options(s: Settings, split: str, count: int) -> dict:
@@ -74,25 +78,33 @@ def allowed(wrapped: dict, t: np.ndarray) -> bool:
     return bool(wrapped["index_mask"][t[0], t[1]] and wrapped["mode_mask"][t[0], t[2]])
 
 
+TEACHERS = {"scripted": ScriptedAgent, "scripted-shove": ShovingScriptedAgent}
+
+
 def scripted_demos(s: Settings, log: Callable[[str], None]) -> list[tuple[dict, np.ndarray]]:
-    """(compact observation, triple) of the scripted agent on `bc_boards` train boards."""
+    """(compact observation, triple) of the teacher agent on `bc_boards` train boards; the
+    reader's memory follows every action the teacher takes."""
+    if s.teacher not in TEACHERS:
+        raise UserError(f"--teacher {s.teacher}: one of {', '.join(TEACHERS)}")
     env = make_rl_env(s.config, **env_options(s, "train", s.bc_boards))
     raw_env = env.unwrapped
     layout = features.Layout.from_options(raw_env.options)  # type: ignore[attr-defined]
-    demos = []
+    demos, reader = [], EpisodeReader()
     try:
         for i in range(s.bc_boards):
             raw, info = raw_env.reset(seed=s.seed, options={"index": i})
             static = features.static_rows(raw, layout)
-            agent, done = ScriptedAgent(seed=0), False
+            agent, done = TEACHERS[s.teacher](seed=0), False
+            reader.reset()
             while not done:
                 act = agent.act(raw, info)
                 if getattr(agent, "done", False):
                     break
                 wrapped = batching.wrapped_observation(raw, info["action_mask"], layout, static)
-                t = triple_of(act)
+                extra, t = reader.read(wrapped), triple_of(act)
                 if allowed(wrapped, t):
-                    demos.append((batching.compact(wrapped), t))
+                    demos.append((batching.compact(wrapped, extra), t))
+                reader.acted(t)
                 raw, _, term, trunc, info = raw_env.step(act)
                 done = term or trunc
             log(f"bc: board {i + 1}/{s.bc_boards}, {len(demos)} demonstrated steps")
@@ -136,12 +148,14 @@ def validate(policy: SetPolicy, s: Settings, dev, env=None) -> dict:
     try:
         for i in range(s.val_boards):
             obs, info = env.reset(seed=s.seed, options={"index": i})
-            total, done = 0.0, False
+            total, done, reader = 0.0, False, EpisodeReader()
             while not done:
-                items = batching.collate([batching.compact(obs)])
+                items = batching.collate([batching.compact(obs, reader.read(obs))])
                 with torch.no_grad():
                     a, _, _ = policy.act(to_tensors(items, dev), greedy=True)
-                obs, r, term, trunc, info = env.step(a[0].cpu().numpy().astype(np.int64))
+                chosen = a[0].cpu().numpy().astype(np.int64)
+                reader.acted(chosen)
+                obs, r, term, trunc, info = env.step(chosen)
                 total, done = total + float(r), term or trunc
             returns.append(total)
             complete += int(info["unconnected"] == 0)
@@ -171,11 +185,16 @@ def collect(policy, envs, s: Settings, update: int, dev) -> tuple[Rollout, np.nd
     ro = Rollout([], [], [], [], [], [], [])
     running, finished = np.zeros(s.envs), []
     resetting = np.zeros(s.envs, dtype=bool)
+    readers = [EpisodeReader() for _ in range(s.envs)]
     for _ in range(s.rollout_steps):
-        items = [batching.compact({k: v[i] for k, v in obs.items()}) for i in range(s.envs)]
+        items = _read_all(obs, readers)
         with torch.no_grad():
             a, logp, v = policy.act(to_tensors(batching.collate(items), dev), False, gen)
+        for reader, chosen in zip(readers, a.cpu().numpy(), strict=True):
+            reader.acted(chosen)
         obs, r, term, trunc, _ = envs.step(a.cpu().numpy().astype(np.int64))
+        for i in np.flatnonzero(resetting):  # that step was the autoreset: a new episode
+            readers[i].reset()
         ro.obs.append(items)
         ro.actions.append(a.cpu())
         ro.logp.append(logp.cpu())
@@ -188,10 +207,18 @@ def collect(policy, envs, s: Settings, update: int, dev) -> tuple[Rollout, np.nd
             finished.append(float(running[i]))
             running[i] = 0.0
         resetting = term | trunc
-    items = [batching.compact({k: v[i] for k, v in obs.items()}) for i in range(s.envs)]
     with torch.no_grad():
-        _, _, last = policy.act(to_tensors(batching.collate(items), dev), True)
+        _, _, last = policy.act(to_tensors(batching.collate(_read_all(obs, readers)), dev), True)
     return ro, last.cpu().numpy(), finished
+
+
+def _read_all(obs: dict, readers: list[EpisodeReader]) -> list[dict]:
+    """The compact observation of every vector environment, through its reader."""
+    items = []
+    for i, reader in enumerate(readers):
+        one = {k: v[i] for k, v in obs.items()}
+        items.append(batching.compact(one, reader.read(one)))
+    return items
 
 
 def advantages(ro: Rollout, last: np.ndarray, s: Settings) -> tuple[np.ndarray, np.ndarray]:
@@ -238,8 +265,9 @@ def ppo_update(policy, opt, ro: Rollout, last, s: Settings, update: int, dev) ->
     return {"policy_loss": float(pg_m), "value_loss": float(vl_m), "entropy": float(ent_m)}
 
 
-#: Settings a resumed run may change: more updates extend it.
-EXTENDABLE = ("updates",)
+#: Settings a resumed run may change: more updates extend it; the sampling temperature is
+#: only written into the checkpoints, for rollouts.
+EXTENDABLE = ("updates", "sampling_temperature")
 
 
 class Run:
@@ -283,7 +311,8 @@ class Run:
 
 
 def policy_record(s: Settings, progress: dict, extra: dict) -> dict:
-    return {"settings": asdict(s), "update": progress["update"], **extra}
+    return {"settings": asdict(s), "update": progress["update"],
+            "sampling_temperature": s.sampling_temperature, **extra}
 
 
 def train(out, s: Settings, log: Callable[[str], None] = print) -> dict:

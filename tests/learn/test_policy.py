@@ -38,8 +38,8 @@ def test_sampled_actions_are_never_masked(n_nets, n_cands, k):
     batch = to_tensors(batching.collate(items), dev)
     gen = torch.Generator(device=dev).manual_seed(0)
     seen = set()
-    for _ in range(25):
-        actions, logp, value = policy.act(batch, generator=gen)
+    for step in range(25):
+        actions, logp, value = policy.act(batch, generator=gen, temperature=1.0 + step % 3)
         for item, (t, i, m) in zip(items, actions.tolist(), strict=True):
             assert item["index_mask"][t, i] and item["mode_mask"][t, m], (t, i, m)
             seen.add(t)

@@ -16,6 +16,7 @@ from pcbdata.learn import train as training  # noqa: E402
 from pcbdata.learn.agent import PolicyAgent  # noqa: E402
 from pcbdata.learn.checkpoint import load_policy, shipped_path  # noqa: E402
 from pcbdata.learn.policy import SetPolicy  # noqa: E402
+from tests.learn.conftest import LEARN_BOARDS  # noqa: E402
 
 TINY = training.Settings(dim=16, max_steps=8, bc_boards=2, bc_epochs=2, train_boards=4,
                          updates=1, envs=1, rollout_steps=6, minibatch=8, val_boards=1,
@@ -62,22 +63,34 @@ def test_a_missing_checkpoint_is_a_user_error(tmp_path):
         make_agent(f"policy:{tmp_path / 'none.pt'}", 0)
 
 
-def test_shipped_policy_rollouts_are_identical(learn_set, tmp_path, capsys):
+def test_a_checkpoint_of_another_format_is_refused_with_the_reason(tmp_path):
+    import torch
+
+    old = tmp_path / "old.pt"
+    torch.save({"format": 1, "dim": 16, "state": SetPolicy(dim=16).state_dict()}, old)
+    with pytest.raises(UserError, match="format 1, this pcbdata reads format 2"):
+        load_policy(old)
+
+
+def test_shipped_policy_routes_and_its_rollouts_are_identical(learn_set, tmp_path, capsys):
     assert shipped_path().is_file()
     runs = []
     for name in ("a", "b"):
         out = tmp_path / name
         argv = ["rollout", str(learn_set), "--config", "d2", "--agent", "policy",
-                "--max-steps", "20", "--drc", "terminal", "--workers", "1", "--out", str(out)]
+                "--max-steps", "60", "--drc", "terminal", "--workers", "1", "--out", str(out)]
         assert main(argv) == 0
         runs.append(out)
     assert "done: 8 rollouts run" in capsys.readouterr().out
+    routed = 0
     for board in sorted(p.name for p in runs[0].iterdir()):
         a, b = (json.loads((r / board / "0.json").read_text()) for r in runs)
         a.pop("time_s"), b.pop("time_s")
-        assert a == b and a["agent"] == "policy"
+        assert a == b and a["agent"] == "policy" and a["engine_failure"] is None
         assert ((runs[0] / board / "0.kicad_pcb").read_bytes()
                 == (runs[1] / board / "0.kicad_pcb").read_bytes())
+        routed += a["unconnected"] == 0
+    assert routed >= 7, f"the shipped policy completed {routed} of {LEARN_BOARDS} D2 boards"
 
 
 def test_short_run_beats_the_untrained_network():
