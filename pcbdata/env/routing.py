@@ -57,11 +57,11 @@ def _request(net: NetRules, layer: str, start, goal) -> RouteRequest:
 
 
 def _path(router, mode: int, net: NetRules, layer: str, start, goal, budget,
-          extra: tuple = ()) -> Outcome:
+          extra: tuple = (), static: StaticBoard | None = None) -> Outcome:
     if mode == MARK_OBSTACLES:
         return Outcome(True, edits=[octilinear_line(start, goal)])
     if mode == PUSH_N_SHOVE:
-        return _shove_path(router, net, layer, start, goal, budget, extra)
+        return _shove_path(router, net, layer, start, goal, budget, extra, static)
     began = time.perf_counter()
     result = router().route(_request(net, layer, start, goal))
     budget.append(time.perf_counter() - began)
@@ -75,17 +75,28 @@ def _path(router, mode: int, net: NetRules, layer: str, start, goal, budget,
     return Outcome(True, edits=[path], stats=stats)
 
 
-def _shove_path(router, net: NetRules, layer: str, start, goal, budget, extra) -> Outcome:
+def _shove_path(router, net: NetRules, layer: str, start, goal, budget, extra,
+                static: StaticBoard | None) -> Outcome:
     began = time.perf_counter()
-    planned = shove.plan(router(), _request(net, layer, start, goal), extra)
+    planned = shove.plan(router(), _request(net, layer, start, goal), extra,
+                         _via_rules(static) if static is not None else None)
     budget.append(time.perf_counter() - began)
     stats = deterministic_stats(planned.stats)
     if planned.path is None:
         return Outcome(False, planned.reason, stats=stats)
     side = [remove_edit(item) for item in planned.removed]
-    side += [{"kind": "track", "net": r.net, "layer": layer, "points": list(r.path),
+    side += [{"kind": "track", "net": r.net, "layer": r.layer or layer, "points": list(r.path),
               "width": r.width} for r in planned.reroutes]
+    side += [{"kind": "via", "net": v.net, "at": tuple(v.at), "diameter": v.diameter,
+              "drill": v.drill} for v in planned.vias]
     return Outcome(True, edits=[planned.path], stats=stats, side=side, moved=planned.moved_nets)
+
+
+def _via_rules(static: StaticBoard) -> shove.ViaRules:
+    """Every copper layer (a via spans them) and each net's own via, for re-joins."""
+    sizes = {n.name: (n.via_diameter, n.via_drill) for n in static.nets}
+    largest = max(sizes.values(), default=(0, 0))
+    return shove.ViaRules(tuple(static.layers), lambda name: sizes.get(name, largest))
 
 
 def remove_edit(item: CopperItem) -> dict:
@@ -136,7 +147,7 @@ def _track_edit(net: NetRules, layer: str, points) -> dict:
 def make_line(static, router, net: NetRules, head: Head, goal, mode: int, times,
               extra: tuple = ()) -> Outcome:
     layer = static.layers[head.layer]
-    found = _path(router, mode, net, layer, (head.x, head.y), goal, times, extra)
+    found = _path(router, mode, net, layer, (head.x, head.y), goal, times, extra, static)
     if not found.ok:
         return found
     edits = [_track_edit(net, layer, found.edits[0])] if tuple(goal) != (head.x, head.y) else []

@@ -10,8 +10,12 @@ KiCad stays the judge. A request is planned in three steps:
    tracks that path would pass too close to are the *blockers*.
 3. The blockers are taken up, and each place where a blocker touched the rest of its net's
    copper is joined again by the walkaround router, on the same layer, around the new path and
-   everything else (blocking nets in name order, each new path an obstacle to the next). If any
-   net cannot be joined again, the plan fails and the board stays as it was.
+   everything else (blocking nets in name order, each new path an obstacle to the next). Where
+   the same layer has no way round (the new path cuts the moved net off, as between the pads of
+   a fine-pitch row), the join may hop to another copper layer through one via of the moved
+   net's size, placed on the taken-up track's way, when the far end reaches that layer (a
+   through-hole pad, a via). If any net cannot be joined again, the plan fails and the board
+   stays as it was.
 
 Every new path is a walkaround path, so it keeps clearance by construction; the environment
 then applies the plan in one KiCad round trip and undoes it if KiCad's connectivity shows that
@@ -19,8 +23,10 @@ a moved net lost a connection (`pcbdata.env.routing`). Nothing here imports KiCa
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
+import numpy as np
 import shapely
 
 from pcbdata.router.geometry import BoardGeometry, CopperItem, Point, copper_core
@@ -29,11 +35,39 @@ from pcbdata.router.walkaround import TOLERANCE, RouteRequest, WalkaroundRouter
 
 @dataclass(frozen=True)
 class Reroute:
-    """A new path for a moved net (its tracks' width, on the request's layer)."""
+    """A new path for a moved net (its tracks' width; layer "": the request's layer)."""
 
     net: str
     path: tuple[Point, ...]
     width: int
+    layer: str = ""
+
+
+@dataclass(frozen=True)
+class ViaDrop:
+    """A through via a re-join hops layers with."""
+
+    net: str
+    at: Point
+    diameter: int
+    drill: int
+
+
+@dataclass(frozen=True)
+class ViaRules:
+    """What a re-join through a via needs: the board's copper layers (a via spans them all)
+    and each net's via (net name -> diameter, drill)."""
+
+    layers: tuple[str, ...]
+    via_of: Callable[[str], tuple[int, int]]
+
+
+#: Places along a taken-up track a via re-join looks at, nearest the cut-off end first, and
+#: their spacing (nm): enough to step out of a fine-pitch row. Of those where the via fits, at
+#: most VIA_TRIES are routed to (a failed search is the dearest thing the router does).
+VIA_SPOTS = 12
+VIA_SPOT_STEP = 250_000
+VIA_TRIES = 2
 
 
 @dataclass(frozen=True)
@@ -42,6 +76,7 @@ class ShovePlan:
     reason: str = ""
     removed: tuple[CopperItem, ...] = ()  # other nets' tracks taken up, sorted
     reroutes: tuple[Reroute, ...] = ()
+    vias: tuple[ViaDrop, ...] = ()  # re-joins' layer hops
     stats: dict = field(default_factory=dict)
 
     @property
@@ -50,9 +85,10 @@ class ShovePlan:
 
 
 def plan(router: WalkaroundRouter, request: RouteRequest,
-         extra: tuple[CopperItem, ...] = ()) -> ShovePlan:
+         extra: tuple[CopperItem, ...] = (), vias: ViaRules | None = None) -> ShovePlan:
     """The push_n_shove plan for `request` on `router`'s board. `extra`: copper of the request's
-    net that will be added with the path (a via at the goal), which the moved nets must avoid."""
+    net that will be added with the path (a via at the goal), which the moved nets must avoid;
+    `vias`: the layers and via sizes a re-join may hop layers with (None: same layer only)."""
     direct = router.route(request)
     if direct.path is not None:
         return ShovePlan(direct.path, stats={**direct.stats, "shove": "not_needed"})
@@ -66,7 +102,7 @@ def plan(router: WalkaroundRouter, request: RouteRequest,
     blockers = _blocking(opened.path, request, movable)
     if not blockers:  # the first search ran out of budget where this one did not
         return ShovePlan(opened.path, stats={**opened.stats, "shove": "not_needed"})
-    return _reroute(router, request, opened.path, blockers, extra)
+    return _reroute(router, request, opened.path, blockers, extra, vias)
 
 
 def _failed(reason: str, result) -> ShovePlan:
@@ -114,30 +150,112 @@ def path_items(net: str, layer: str, path, width: int, clearance: int) -> list[C
             for a, b in zip(path, path[1:]) if tuple(a) != tuple(b)]
 
 
-def _reroute(router: WalkaroundRouter, request: RouteRequest, path, blockers, extra) -> ShovePlan:
+def _reroute(router: WalkaroundRouter, request: RouteRequest, path, blockers, extra,
+             vias: ViaRules | None) -> ShovePlan:
     ours = path_items(request.net, request.layer, path, request.width, request.clearance)
     board = _with(_without(router.board, blockers), ours + list(extra))
     reroutes: list[Reroute] = []
-    expanded = 0
+    drops: list[ViaDrop] = []
+    expanded = [0]
     for net in sorted({b.net for b in blockers}):
         taken = [b for b in blockers if b.net == net]
         for group in _groups(taken):
             ends = _attachments(group, board)
             width, clearance = max(t.width for t in group), max(t.clearance for t in group)
             for goal in ends[1:]:
-                found = router.with_board(board).route(RouteRequest(
-                    net=net, layer=request.layer, start=ends[0], goal=goal, width=width,
-                    clearance=clearance))
-                expanded += int(found.stats.get("expanded", 0))
-                if found.path is None:
+                join = _Join(router, net, request.layer, width, clearance, expanded)
+                found = join.route(board, request.layer, ends[0], goal)
+                if found.path is not None:
+                    reroutes.append(Reroute(net, tuple(found.path), width))
+                    board = _with(board, join.items(request.layer, found.path))
+                    continue
+                hop = join.through_via(board, group, ends[0], goal, vias) if vias else None
+                if hop is None:
                     return ShovePlan(None, f"push_n_shove: net {net!r} cannot be joined again "
                                            f"around the new path ({found.reason})",
-                                     stats={"method": "shove", "expanded": expanded})
-                reroutes.append(Reroute(net, tuple(found.path), width))
-                board = _with(board, path_items(net, request.layer, found.path, width, clearance))
-    stats = {"method": "shove", "moved_tracks": len(blockers), "expanded": expanded,
-             "moved_nets": len({b.net for b in blockers}), "reroutes": len(reroutes)}
-    return ShovePlan(tuple(path), removed=tuple(blockers), reroutes=tuple(reroutes), stats=stats)
+                                     stats={"method": "shove", "expanded": expanded[0]})
+                legs, drop, board = hop
+                reroutes += legs
+                drops.append(drop)
+    stats = {"method": "shove", "moved_tracks": len(blockers), "expanded": expanded[0],
+             "moved_nets": len({b.net for b in blockers}), "reroutes": len(reroutes),
+             "rejoin_vias": len(drops)}
+    return ShovePlan(tuple(path), removed=tuple(blockers), reroutes=tuple(reroutes),
+                     vias=tuple(drops), stats=stats)
+
+
+@dataclass
+class _Join:
+    """Re-joining one moved net: same-layer paths, or two legs and a via between layers."""
+
+    router: WalkaroundRouter
+    net: str
+    layer: str
+    width: int
+    clearance: int
+    expanded: list[int]
+
+    def route(self, board: BoardGeometry, layer: str, start: Point, goal: Point):
+        found = self.router.with_board(board).route(RouteRequest(
+            net=self.net, layer=layer, start=start, goal=goal, width=self.width,
+            clearance=self.clearance))
+        self.expanded[0] += int(found.stats.get("expanded", 0))
+        return found
+
+    def items(self, layer: str, path) -> list[CopperItem]:
+        return path_items(self.net, layer, path, self.width, self.clearance)
+
+    def through_via(self, board: BoardGeometry, group, a: Point, b: Point, vias: ViaRules):
+        """(legs, via, board with them) joining a and b with one layer hop, or None. The via
+        sits on the taken-up tracks' way, nearest the end that stays on this layer; the far
+        end must reach the other layer."""
+        diameter, drill = vias.via_of(self.net)
+        for near, far in ((a, b), (b, a)):
+            for other in [la for la in vias.layers
+                          if la != self.layer and _reaches(board, self.net, far, la)]:
+                fitting = [at for at in _via_spots(group, near) if self.router.with_board(
+                    board).via_fits(self.net, at, diameter, self.clearance, vias.layers)]
+                for at in fitting[:VIA_TRIES]:
+                    hop = self._hop(board, near, far, at, other, diameter, vias.layers)
+                    if hop is not None:
+                        legs, board_after = hop
+                        return legs, ViaDrop(self.net, at, diameter, drill), board_after
+        return None
+
+    def _hop(self, board, near, far, at, other, diameter, layers):
+        via_item = CopperItem(kind="via", net=self.net, layers=tuple(layers), start=at, end=at,
+                              width=diameter, clearance=self.clearance)
+        first = (near,) if at == near else self.route(board, self.layer, near, at).path
+        if first is None:
+            return None
+        board = _with(board, self.items(self.layer, first) + [via_item])
+        second = self.route(board, other, at, far).path
+        if second is None:
+            return None
+        board = _with(board, self.items(other, second))
+        legs = [Reroute(self.net, tuple(first), self.width, self.layer),
+                Reroute(self.net, tuple(second), self.width, other)]
+        return [leg for leg in legs if len(leg.path) > 1], board
+
+
+def _reaches(board: BoardGeometry, net: str, point: Point, layer: str) -> bool:
+    """Whether the net's copper on `layer` joins a track end at `point` (a through-hole pad, a
+    via)."""
+    return any(_touches(item, point) for item in board.copper
+               if item.net == net and layer in item.layers)
+
+
+def _via_spots(group: list[CopperItem], near: Point) -> list[Point]:
+    """Places along the taken-up tracks, every VIA_SPOT_STEP, nearest `near` first."""
+    spots = set()
+    for track in group:
+        a, b = np.array(track.start, dtype=float), np.array(track.end, dtype=float)
+        steps = max(1, int(np.hypot(*(b - a)) // VIA_SPOT_STEP))
+        for t in np.linspace(0.0, 1.0, steps + 1):
+            x, y = a + t * (b - a)
+            spots.add((int(round(x)), int(round(y))))
+    return sorted(spots, key=lambda p: ((p[0] - near[0]) ** 2 + (p[1] - near[1]) ** 2, p))[
+        :VIA_SPOTS]
 
 
 def _groups(tracks: list[CopperItem]) -> list[list[CopperItem]]:

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import random
 
-from pcbdata.router.geometry import BoardGeometry
+from pcbdata.router.geometry import BoardGeometry, CopperItem
 from pcbdata.router.shove import path_items, plan
 from pcbdata.router.walkaround import WalkaroundRouter
 from tests.router.test_walkaround import CLEARANCE, MM, board, exact_gaps, pad, request, wall
@@ -28,7 +28,7 @@ def _after(geometry: BoardGeometry, done, req) -> BoardGeometry:
     items = [i for i in geometry.copper if i not in gone]
     items += path_items(req.net, req.layer, done.path, req.width, req.clearance)
     for r in done.reroutes:
-        items += path_items(r.net, req.layer, r.path, r.width, CLEARANCE)
+        items += path_items(r.net, r.layer or req.layer, r.path, r.width, CLEARANCE)
     return BoardGeometry(geometry.outline, tuple(items), geometry.edge_clearance)
 
 
@@ -93,3 +93,32 @@ def test_a_net_that_cannot_be_joined_again_changes_nothing():
     done = plan(WalkaroundRouter(geometry), request("A", (1, 9), (19, 9)))
     assert done.path is None and "'B'" in done.reason
     assert done.removed == () and done.reroutes == ()
+
+
+def test_a_cut_off_net_is_joined_again_through_a_via_when_its_far_end_reaches_another_layer():
+    """As above, but B's top pad is a through-hole pad: B hops to B.Cu through one via placed
+    on its taken-up track's way (here on its own bottom pad) and runs under A's new path."""
+    from pcbdata.router.shove import ViaDrop, ViaRules
+
+    tht = pad("B", 10, 3, size=0.6, layers=("F.Cu", "B.Cu"))
+    geometry = board(pad("A", 1, 9), pad("A", 19, 9), pad("B", 10, 9.9, size=0.2), tht,
+                     wall("B", 10, 3, 10, 9.9, 0.25),
+                     outline=(((0, 2 * MM), (20 * MM, 2 * MM), (20 * MM, 10.6 * MM),
+                               (0, 10.6 * MM)),))
+    req = request("A", (1, 9), (19, 9))
+    vias = ViaRules(("F.Cu", "B.Cu"), lambda net: (400_000, 200_000))
+    done = plan(WalkaroundRouter(geometry), req, vias=vias)
+    assert done.path is not None, done.reason
+    assert done.vias == (ViaDrop("B", (10 * MM, 9_900_000), 400_000, 200_000),)
+    assert [(r.net, r.layer, r.path[0], r.path[-1]) for r in done.reroutes] == \
+        [("B", "B.Cu", (10 * MM, 9_900_000), (10 * MM, 3 * MM))]
+    assert done.stats["rejoin_vias"] == 1
+    via = CopperItem("via", "B", ("F.Cu", "B.Cu"), start=done.vias[0].at, end=done.vias[0].at,
+                     width=400_000, clearance=CLEARANCE)
+    final = _after(geometry, done, req)
+    final = BoardGeometry(final.outline, final.copper + (via,), final.edge_clearance)
+    assert min(exact_gaps(final, req, done.path)) >= 0  # A keeps clear of the via too
+    leg = done.reroutes[0]
+    under = request("B", (10, 9.9), (10, 3), layer="B.Cu", width=leg.width)
+    assert min(exact_gaps(final, under, leg.path)) >= 0
+    assert plan(WalkaroundRouter(geometry), req).path is None  # without vias: as before
