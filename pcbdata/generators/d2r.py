@@ -33,10 +33,12 @@ _REF_PREFIX = {"sot23": "Q", "soic": "U", "tssop": "U", "dip": "U", "qfn": "U", 
 
 @dataclass(frozen=True)
 class _Style:
-    """One board's leaning: its part mix and passive sizes."""
+    """One board's leaning: its part mix, passive sizes and how far it leans to SMD parts (0:
+    through-hole only, 1: SMD only)."""
 
     part_mix: dict[str, float]
     passive_sizes: dict[str, float]
+    smd_lean: float = 0.5
 
 
 def _normal(stream: Stream) -> float:
@@ -76,14 +78,16 @@ class D2RGenerator:
         p = self.params
         layers = 4 if stream.random() < p.four_layer_fraction else 2
         count = self._component_count(stream)
-        style = _Style(self._board_mix(stream), self._board_passives(stream))
+        mix, smd_lean = self._board_mix(stream)
+        style = _Style(mix, self._board_passives(stream), smd_lean)
         templates = [self._template(stream, style) for _ in range(count)]
         pad_target = self._pad_target(stream, count)
         self._top_up(stream, style, templates, pad_target)
         sides = ["B" if not t.through_hole and stream.random() < p.back_side_fraction else "F"
                  for t in templates]
         holes = 4 if stream.random() < p.mounting_hole_fraction else 0
-        outline, parts = self._layout(stream, templates, sides, holes, f"{split} {index}")
+        outline, parts = self._layout(stream, templates, sides, holes, style,
+                                      f"{split} {index}")
         parts = _Nets(stream, p, pad_target).assign(parts)
         power = tuple(n for n in ("GND", *_RAILS) if _has_net(parts, n))
         board = Board(width=outline.width, height=outline.height, rules=self.rules, pads=[],
@@ -112,14 +116,15 @@ class D2RGenerator:
         low, high = p.pads_range
         return min(high, max(low, int(round(components * ratio))))
 
-    def _board_mix(self, stream: Stream) -> dict[str, float]:
-        """The part mix of one board: real boards lean through-hole or SMD as a whole, so the
-        two groups' weights are tilted by one draw per board (`style_spread` 0: no tilt)."""
+    def _board_mix(self, stream: Stream) -> tuple[dict[str, float], float]:
+        """The part mix of one board and its SMD lean: real boards lean through-hole or SMD as
+        a whole, so the two groups' weights are tilted by one draw per board (`style_spread`
+        0: no tilt)."""
         tilt = self.params.style_spread * (2 * stream.random() - 1)
         factor = {kind: 1 + tilt for kind in _THT_STYLE}
         factor.update({kind: 1 - tilt for kind in _SMD_STYLE})
         mix = {k: w * factor.get(k, 1.0) for k, w in self.params.part_mix.items()}
-        return mix if sum(mix.values()) > 0 else dict(self.params.part_mix)
+        return (mix if sum(mix.values()) > 0 else dict(self.params.part_mix)), (1 - tilt) / 2
 
     def _board_passives(self, stream: Stream) -> dict[str, float]:
         """The passive sizes of one board: designers keep to one size, so one drawn size takes
@@ -149,7 +154,7 @@ class D2RGenerator:
         if kind == "axial":
             return fp.axial(stream.choice(fp.AXIAL_PITCHES))
         if kind == "radial":
-            return fp.radial(stream.choice(fp.RADIAL_PITCHES))
+            return fp.radial(stream.choice(p.radial_pitches_mm))
         if kind == "dip":
             return fp.dip(stream.choice((8, 14, 16, 20, 28)))
         if kind == "sot23":
@@ -179,8 +184,8 @@ class D2RGenerator:
             return fp.jst_sh(2 + stream.integer(7))
         return fp.terminal_block(2 + stream.integer(3))
 
-    def _board_size(self, stream: Stream, templates: list[fp.Template],
-                    sides: list[str]) -> tuple[float, float]:
+    def _board_size(self, stream: Stream, templates: list[fp.Template], sides: list[str],
+                    style: _Style) -> tuple[float, float]:
         """Width and height (nm) from the courtyard area the busier side must hold."""
         p = self.params
         load = {"F": 0.0, "B": 0.0}
@@ -188,8 +193,7 @@ class D2RGenerator:
             area = 4.0 * template.courtyard[0] * template.courtyard[1]
             for s in (("F", "B") if template.through_hole else (side,)):
                 load[s] += area
-        low, high = p.fill_range  # log-uniform: real boards span a decade of densities
-        area = max(load.values()) / math.exp(stream.uniform(math.log(low), math.log(high)))
+        area = max(load.values()) / self._fill(stream, style)
         aspect = stream.uniform(*p.aspect_range)
         # The longest part must fit one way and the widest the other (parts turn).
         margin = 2 * mm_to_nm(p.edge_clearance_mm)
@@ -199,10 +203,21 @@ class D2RGenerator:
         height = max(area / width, widest)
         return (width, height) if stream.random() < 0.5 else (height, width)
 
+    def _fill(self, stream: Stream, style: _Style) -> float:
+        """The board's fill, log-uniform in `fill_range` (real boards span a decade of
+        densities), pulled towards the range's top by the board's SMD lean as far as
+        `fill_style_coupling` says: dense real boards are SMD boards."""
+        low, high = (math.log(v) for v in self.params.fill_range)
+        drawn = stream.uniform(low, high)
+        coupling = self.params.fill_style_coupling
+        if coupling:
+            drawn = (1 - coupling) * drawn + coupling * (low + style.smd_lean * (high - low))
+        return math.exp(drawn)
+
     def _layout(self, stream: Stream, templates: list[fp.Template], sides: list[str],
-                holes: int, label: str) -> tuple[Outline, list[Part]]:
+                holes: int, style: _Style, label: str) -> tuple[Outline, list[Part]]:
         p = self.params
-        width, height = self._board_size(stream, templates, sides)
+        width, height = self._board_size(stream, templates, sides, style)
         shape = _weighted(stream, p.outline_mix)
         # Big parts first: small ones fill the gaps left between them.
         order = sorted(range(len(templates)), key=lambda i: (

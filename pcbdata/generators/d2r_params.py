@@ -20,7 +20,8 @@ KICAD_MAX_UNCONNECTED = 499
 _PROBABILITY_TABLES = ("part_mix", "passive_sizes", "outline_mix", "signal_net_sizes")
 _FRACTIONS = ("style_spread", "passive_size_consistency", "back_side_fraction",
               "four_layer_fraction", "exposed_pad_fraction", "mounting_hole_fraction",
-              "decoupling_fraction", "connected_fraction", "two_row_header_fraction")
+              "decoupling_fraction", "connected_fraction", "two_row_header_fraction",
+              "fill_style_coupling")
 _CLASS_LENGTHS = ("clearance_mm", "track_width_mm", "via_diameter_mm", "via_drill_mm")
 
 
@@ -30,27 +31,29 @@ class D2RParams(GeneratorParams):
     docs/realistic.md explains each."""
 
     components_median: float = 18.0
-    components_sigma: float = 0.38
+    components_sigma: float = 0.4
     components_range: tuple[int, int] = (4, 45)
     pads_per_component_median: float = 3.2
     pads_per_component_sigma: float = 0.15
-    pads_range: tuple[int, int] = (38, 95)
+    pads_range: tuple[int, int] = (38, 90)
     part_mix: dict[str, float] = field(default_factory=lambda: {
-        "passive": 0.25, "axial": 0.18, "radial": 0.14, "sot23": 0.05, "soic": 0.05,
-        "tssop": 0.02, "dip": 0.07, "qfn": 0.03, "qfp": 0.03, "header": 0.12,
-        "connector": 0.06})
+        "passive": 0.28, "axial": 0.14, "radial": 0.13, "sot23": 0.06, "soic": 0.06,
+        "tssop": 0.01, "dip": 0.07, "qfn": 0.006, "qfp": 0.004, "header": 0.16,
+        "connector": 0.08})
     style_spread: float = 1.0
     passive_sizes: dict[str, float] = field(default_factory=lambda: {
         "0402": 0.15, "0603": 0.35, "0805": 0.3, "1206": 0.2})
     passive_size_consistency: float = 0.8
     qfn_pitches_mm: tuple[float, ...] = (0.4, 0.5, 0.65)
     qfp_pitches_mm: tuple[float, ...] = (0.4, 0.5, 0.65, 0.8)
+    radial_pitches_mm: tuple[float, ...] = (2.5, 3.5, 5.0)
     exposed_pad_fraction: float = 0.7
     header_pins: tuple[int, int] = (2, 8)
     two_row_header_fraction: float = 0.25
     back_side_fraction: float = 0.35
     four_layer_fraction: float = 0.02
-    fill_range: tuple[float, float] = (0.2, 0.9)
+    fill_range: tuple[float, float] = (0.1, 2.0)
+    fill_style_coupling: float = 0.0
     aspect_range: tuple[float, float] = (1.0, 1.8)
     outline_mix: dict[str, float] = field(default_factory=lambda: {
         "rect": 0.5, "rounded": 0.2, "chamfered": 0.1, "l_shape": 0.1, "notch": 0.1})
@@ -61,7 +64,7 @@ class D2RParams(GeneratorParams):
     decoupling_fraction: float = 0.4
     connected_fraction: float = 0.8
     signal_net_sizes: dict[str, float] = field(default_factory=lambda: {
-        "2": 0.6, "3": 0.2, "4": 0.1, "5": 0.06, "6": 0.04})
+        "2": 0.66, "3": 0.2, "4": 0.08, "5": 0.04, "6": 0.02})
     locality: int = 6
     max_connections: int = KICAD_MAX_UNCONNECTED
     compactness: int = 4
@@ -147,6 +150,10 @@ class D2RParams(GeneratorParams):
             values = getattr(self, name)
             if not values or any(v not in widths for v in values):
                 out.append(f"{name} must list pitches among {sorted(widths)}, got {list(values)}")
+        low, high = fp.RADIAL_PITCH_RANGE_MM
+        if not self.radial_pitches_mm or any(not low <= v <= high for v in self.radial_pitches_mm):
+            out.append(f"radial_pitches_mm must list pitches from {low:g} to {high:g} mm, got "
+                       f"{list(self.radial_pitches_mm)}")
         return out
 
     def _lengths(self) -> list[str]:
@@ -197,7 +204,7 @@ class D2RParams(GeneratorParams):
         templates += [fp.sot23(), fp.pin_header(2, 2), fp.jst_ph(2), fp.jst_sh(2),
                       fp.terminal_block(2), fp.dip(8)]
         templates += [fp.axial(p) for p in fp.AXIAL_PITCHES]
-        templates += [fp.radial(p) for p in fp.RADIAL_PITCHES]
+        templates += [fp.radial(p) for p in self.radial_pitches_mm]
         return nm_to_mm(min(fp.min_gap(t) for t in templates))
 
 

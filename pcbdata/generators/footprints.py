@@ -12,17 +12,20 @@ from dataclasses import dataclass
 from pcbdata.model.board import PadShape, PartPad, mm_to_nm
 
 COURTYARD_MARGIN_MM = 0.25
-# Two-pad passives: (pad width along the axis, pad height, pad centre distance), mm.
-PASSIVES = {"0402": (0.54, 0.64, 1.02), "0603": (0.8, 0.95, 1.65),
-            "0805": (1.025, 1.4, 1.825), "1206": (1.125, 1.75, 2.975)}
+# Two-pad passives: (pad width along the axis, pad height, pad centre distance), mm. The centre
+# distances are the common ones of published land patterns (0603 at 1.5, 0805 at 1.9 mm), the
+# pitches real boards' passives show most (docs/realism.md).
+PASSIVES = {"0402": (0.54, 0.64, 0.97), "0603": (0.8, 0.95, 1.5),
+            "0805": (1.0, 1.45, 1.9), "1206": (1.15, 1.8, 3.0)}
 # Fine-pitch packages: pitch -> pad width across the pitch (what keeps the gap between pins).
 QFN_PAD_WIDTH = {0.4: 0.2, 0.5: 0.25, 0.65: 0.35}
 QFP_PAD_WIDTH = {0.4: 0.2, 0.5: 0.28, 0.65: 0.38, 0.8: 0.5}
 KINDS = ("passive", "axial", "radial", "sot23", "soic", "tssop", "dip", "qfn", "qfp", "header",
          "connector")
-# Through-hole two-pin parts: axial (resistors, diodes) and radial (capacitors) lead spacings.
+# Through-hole two-pin parts: axial (resistors, diodes) lead spacings; radial ones (capacitors)
+# are a parameter of the family (`radial_pitches_mm`), within these bounds (1.6 mm pads).
 AXIAL_PITCHES = (7.62, 10.16)
-RADIAL_PITCHES = (2.54, 5.08)
+RADIAL_PITCH_RANGE_MM = (2.0, 10.0)
 
 
 @dataclass(frozen=True)

@@ -40,6 +40,10 @@ PER_NET = "pads_per_net"
 SNAP_MM = (0.01, 0.2)
 #: Farthest an outline's polyline strays from its arcs and circles.
 ARC_TOLERANCE_MM = 0.005
+#: Pitches are rounded to KiCad's resolution (1 nm): differences of file coordinates carry
+#: float noise (10.16 - 7.62 is 2.5400000000000009), which would split equal pitches of two
+#: boards into distinct values and count as a KS distance.
+PITCH_DECIMALS = 6
 
 Sexpr = list  # nested lists of str atoms (quoted strings keep no quotes)
 
@@ -105,7 +109,7 @@ class BoardStatistics:
     def pad_pitch(self) -> float | None:
         if not self.footprint_pitches:
             return None
-        return float(_median(self.footprint_pitches))
+        return round(float(_median(self.footprint_pitches)), PITCH_DECIMALS)
 
     def values(self) -> dict[str, list[float]]:
         """Each statistic's contribution to a sample: one value, none (undefined), or, for
@@ -187,7 +191,7 @@ def _footprint_pitch(footprint: Sexpr) -> float | None:
     xy = np.array(sorted(centres))
     gaps = np.hypot(xy[:, None, 0] - xy[None, :, 0], xy[:, None, 1] - xy[None, :, 1])
     gaps[np.diag_indices(len(xy))] = np.inf
-    return float(gaps.min())
+    return round(float(gaps.min()), PITCH_DECIMALS)
 
 
 # --- the outline -------------------------------------------------------------------------

@@ -164,11 +164,38 @@ def test_levels_follow_their_tier_sizes():
         assert abs(statistics.median(b.n_pads for b in sample) / pads - 1) < 0.35
 
 
+def test_radial_parts_take_the_levels_pitches():
+    sample = _boards("b", 30, {"part_mix": {"radial": 0.5, "header": 0.5},
+                               "radial_pitches_mm": [3.5]})
+    names = {part.name for board in sample for part in board.parts if part.name.startswith("Rad")}
+    assert names == {"Radial_P3.5"}
+
+
+def _smd_share_and_density(board: Board) -> tuple[float, float]:
+    parts = [p for p in board.parts if p.pads and p.pads[0].plated]
+    smd = sum(1 for p in parts if not any(pad.drill for pad in p.pads)) / len(parts)
+    return smd, board.n_pads / (board.width * board.height)
+
+
+def test_fill_style_coupling_makes_smd_boards_the_dense_ones():
+    """Dense real boards are SMD boards: with the coupling, a board's SMD share and its pad
+    density rise together; without it they hardly do."""
+    def correlation(coupling: float) -> float:
+        pairs = [_smd_share_and_density(b) for b in _boards(
+            "b", 40, {"fill_style_coupling": coupling, "fill_range": [0.1, 2.0]})]
+        return statistics.correlation([p[0] for p in pairs], [p[1] for p in pairs])
+
+    coupled, free = correlation(1.0), correlation(0.0)
+    assert coupled > 0.5 and coupled > free + 0.2
+
+
 @pytest.mark.parametrize("overrides, message", [
     ({"components_medain": 5}, "did you mean 'components_median'"),
     ({"part_mix": {"passive": 0.5, "qfn": 0.2}}, "part_mix probabilities must sum to 1"),
     ({"part_mix": {"passive": 0.5, "bga": 0.5}}, "unknown key 'bga'"),
     ({"qfn_pitches_mm": [0.3]}, "qfn_pitches_mm must list pitches"),
+    ({"radial_pitches_mm": [1.0]}, "radial_pitches_mm must list pitches from 2 to 10 mm"),
+    ({"fill_style_coupling": 1.5}, "fill_style_coupling must be in [0, 1]"),
     ({"power_clearance_mm": 0.25}, "above the library's smallest gap"),
     ({"via_drill_mm": 0.8, "via_diameter_mm": 1.2, "power_via_drill_mm": 0.8,
       "power_via_diameter_mm": 1.2}, "above the library's smallest pad hole"),

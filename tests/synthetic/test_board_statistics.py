@@ -77,6 +77,27 @@ def test_a_notched_board_with_multi_pad_footprints():
     assert stats.pad_pitch == pytest.approx(2.0)
 
 
+def test_equal_pitches_are_equal_values_whatever_the_coordinates():
+    """10.16 - 7.62 is 2.5400000000000009 in floating point: unrounded, two boards with 2.54 mm
+    parts would give distinct pitches and a KS distance between equal distributions."""
+    shifted = """
+  (footprint "Axial" (layer "F.Cu") (at 10 10)
+    (pad "1" thru_hole circle (at 7.62 0) (size 1.6 1.6) (drill 0.8) (layers "*.Cu")
+      (net 1 "A"))
+    (pad "2" thru_hole circle (at 10.16 0) (size 1.6 1.6) (drill 0.8) (layers "*.Cu")
+      (net 2 "B")))
+  (footprint "Centred" (layer "F.Cu") (at 20 10)
+    (pad "1" thru_hole circle (at -1.27 0) (size 1.6 1.6) (drill 0.8) (layers "*.Cu")
+      (net 1 "A"))
+    (pad "2" thru_hole circle (at 1.27 0) (size 1.6 1.6) (drill 0.8) (layers "*.Cu")
+      (net 2 "B")))
+"""
+    stats = statistics_of(parse_sexpr(_board(OUTLINE + shifted)))
+    assert stats.footprint_pitches == (2.54, 2.54)
+    assert stats.pad_pitch == 2.54
+    assert ks_distance([stats.pad_pitch], [2.54]) == 0
+
+
 def test_an_outline_that_closes_nothing_has_no_density():
     open_outline = OUTLINE.replace('(gr_line (start 40 30) (end 0 30) (layer "Edge.Cuts"))', "")
     open_outline = open_outline.replace("gr_circle", "gr_text_box_not_drawn")
