@@ -721,10 +721,12 @@ class _Search:
         len_diag = m * _ROOT2
         rows = self.rows[targets]
         v_row = np.full(len(targets), self.rows[v])
-        first0 = self._too_long(v_row, h_straight, len_straight)
-        second0 = self._too_long(rows, _reverse(h_diag), len_diag)
-        first1 = self._too_long(v_row, h_diag, len_diag)
-        second1 = self._too_long(rows, _reverse(h_straight), len_straight)
+        # The four segment ends in one batch: one lookup of missing ray bounds, not four.
+        first0, second0, first1, second1 = self._too_long(
+            np.concatenate([v_row, rows, v_row, rows]),
+            np.concatenate([h_straight, _reverse(h_diag), h_diag, _reverse(h_straight)]),
+            np.concatenate([len_straight, len_diag, len_diag, len_straight]),
+        ).reshape(4, len(targets))
         return np.stack([~(first0 | second0), ~(first1 | second1)])
 
     def _fill(self, keys: np.ndarray) -> None:
