@@ -203,6 +203,8 @@ class _Rules:
         self.corners: np.ndarray | None = None
         self.rays: dict[tuple[int, int, int], float] = {}
         self.ray_reach = 0.0
+        self.state: _StateKey | None = None  # the layer state and name these rules are for
+        self.layer_name = ""
 
     def free(self, points: np.ndarray, headings: np.ndarray, length: float) -> np.ndarray:
         """How far a track may run from each point along its heading (index into `_HEADINGS`)
@@ -457,8 +459,25 @@ class WalkaroundRouter:
         memory.layers.move_to_end(key)
         code = shape.net_codes.get(net, -2)  # a net with no copper here owns nothing
         rules = _Rules(shape, code, width / 2, clearance, self.board.edge_clearance)
+        rules.state, rules.layer_name = key, layer
+        self._seed_rays(rules, key, net, width, clearance)
         memory.remember(memory.rules, rules_key, rules)
         return rules
+
+    def _seed_rays(self, rules: _Rules, key: _StateKey, net: str, width: int,
+                   clearance: int) -> None:
+        """Starts `rules` with the ray bounds of the latest remembered state of this layer that
+        holds a subset of its items (same outline, same net and sizes). More copper only
+        shortens a ray, so each old bound is still an upper bound and the screen still never
+        rules out a clear link; where the new copper crosses a ray, it is only less tight.
+        Answers are the same either way; rays are the screen's dearest part."""
+        for (old_key, *sizes), old in reversed(self._shared.rules.items()):
+            if (sizes != [net, width, clearance] or old.layer_name != rules.layer_name
+                    or not old.rays or old_key.value[:2] != key.value[:2]):
+                continue
+            if old_key.items() <= key.items():
+                rules.rays, rules.ray_reach = dict(old.rays), old.ray_reach
+                return
 
     def _inside(self, points: np.ndarray) -> np.ndarray:
         if self._region is None:
@@ -516,10 +535,17 @@ class WalkaroundRouter:
 class _StateKey:
     """A large hashable value with its hash worked out once (a layer's items)."""
 
-    __slots__ = ("value", "hash")
+    __slots__ = ("value", "hash", "_items")
 
     def __init__(self, value: tuple):
         self.value, self.hash = value, hash(value)
+        self._items: frozenset | None = None
+
+    def items(self) -> frozenset:
+        """The layer's items (the last part of the value), as a set, worked out once."""
+        if self._items is None:
+            self._items = frozenset(self.value[2])
+        return self._items
 
     def __hash__(self) -> int:
         return self.hash

@@ -109,3 +109,29 @@ def test_paths_are_no_worse_than_before_on_d2_boards():
                 continue
             assert now is not None, f"{name} call {i}: no path where there was one"
             assert now[0] <= length + 1e-3 and now[1] <= bend_count, (name, i, now, length)
+
+
+def test_rays_kept_from_a_state_with_less_copper_never_rule_out_a_clear_link():
+    """A route on the maze fills the rules' ray bounds; with a new wall of another net across
+    the maze, the new state's rules start from those bounds (stale where the wall crosses a
+    ray, never too short), and the screen still never rules out a link the exact test finds
+    clear. Removing copper gives no such start."""
+    geometry, req = _pillar_maze()
+    router = WalkaroundRouter(geometry)
+    assert router.route(req).path is not None
+    before = router._rules(req.net, req.layer, req.width, req.clearance)
+    assert before.rays
+    walled = board(*geometry.copper, wall("C", 5, 10, 15, 10, 0.3))
+    router.update(walled)
+    rules = router._rules(req.net, req.layer, req.width, req.clearance)
+    assert rules is not before and rules.rays == before.rays  # seeded, not worked out again
+    search = _Search(router, rules, req.start, req.goal, time.perf_counter())
+    search.nodes = np.concatenate([search.ends, search.corners])
+    search.rows = np.arange(len(search.nodes))
+    for v in range(0, len(search.nodes), 5):
+        targets = np.setdiff1d(np.arange(len(search.nodes)), [v])
+        maybe = search._screen(v, targets)
+        assert not (_exact_variants(search, v, targets) & ~maybe).any(), f"node {v}"
+    assert WalkaroundRouter(walled).route(req).path == router.route(req).path
+    router.update(board(*geometry.copper[:-1]))  # a pillar gone: old bounds may be too short
+    assert not router._rules(req.net, req.layer, req.width, req.clearance).rays
