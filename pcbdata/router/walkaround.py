@@ -774,8 +774,9 @@ class _Search:
         some = headings >= 0
         rows, headings = rows[some], headings[some]
         missing = np.isnan(self.free[rows, headings])
-        if missing.any():
-            self._fill(np.unique(np.stack([rows[missing], headings[missing]], axis=1), axis=0))
+        if missing.any():  # (row, heading) pairs as one sortable code: a 1-D unique is cheap
+            codes = np.unique(rows[missing].astype(np.int64) * 8 + headings[missing])
+            self._fill(np.stack([codes // 8, codes % 8], axis=1))
         out = np.zeros(len(lengths), dtype=bool)
         out[some] = lengths[some] > self.free[rows, headings]
         return out
