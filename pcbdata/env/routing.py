@@ -56,12 +56,12 @@ def _request(net: NetRules, layer: str, start, goal) -> RouteRequest:
                         clearance=net.clearance)
 
 
-def _path(router, mode: int, net: NetRules, layer: str, start, goal, budget,
-          extra: tuple = (), static: StaticBoard | None = None) -> Outcome:
+def _path(static: StaticBoard, router, mode: int, net: NetRules, layer: str, start, goal,
+          budget, extra: tuple = ()) -> Outcome:
     if mode == MARK_OBSTACLES:
         return Outcome(True, edits=[octilinear_line(start, goal)])
     if mode == PUSH_N_SHOVE:
-        return _shove_path(router, net, layer, start, goal, budget, extra, static)
+        return _shove_path(static, router, net, layer, start, goal, budget, extra)
     began = time.perf_counter()
     result = router().route(_request(net, layer, start, goal))
     budget.append(time.perf_counter() - began)
@@ -75,11 +75,10 @@ def _path(router, mode: int, net: NetRules, layer: str, start, goal, budget,
     return Outcome(True, edits=[path], stats=stats)
 
 
-def _shove_path(router, net: NetRules, layer: str, start, goal, budget, extra,
-                static: StaticBoard | None) -> Outcome:
+def _shove_path(static: StaticBoard, router, net: NetRules, layer: str, start, goal, budget,
+                extra) -> Outcome:
     began = time.perf_counter()
-    planned = shove.plan(router(), _request(net, layer, start, goal), extra,
-                         _via_rules(static) if static is not None else None)
+    planned = shove.plan(router(), _request(net, layer, start, goal), extra, _via_rules(static))
     budget.append(time.perf_counter() - began)
     stats = deterministic_stats(planned.stats)
     if planned.path is None:
@@ -147,7 +146,7 @@ def _track_edit(net: NetRules, layer: str, points) -> dict:
 def make_line(static, router, net: NetRules, head: Head, goal, mode: int, times,
               extra: tuple = ()) -> Outcome:
     layer = static.layers[head.layer]
-    found = _path(router, mode, net, layer, (head.x, head.y), goal, times, extra, static)
+    found = _path(static, router, mode, net, layer, (head.x, head.y), goal, times, extra)
     if not found.ok:
         return found
     edits = [_track_edit(net, layer, found.edits[0])] if tuple(goal) != (head.x, head.y) else []

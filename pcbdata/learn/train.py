@@ -30,6 +30,9 @@ from pcbdata.learn.curve import draw_curve
 from pcbdata.learn.derived import EpisodeReader
 from pcbdata.learn.policy import SetPolicy, device, to_tensors
 
+#: The agents cloning may imitate (`--teacher`).
+TEACHERS = {"scripted": ScriptedAgent, "scripted-shove": ShovingScriptedAgent}
+
 
 @dataclass(frozen=True)
 class Settings:
@@ -61,6 +64,13 @@ class Settings:
     checkpoint_every: int = 20
     sampling_temperature: float = 8.0  # of the checkpoints' @k sampling (pcbdata.learn.agent)
 
+    def __post_init__(self) -> None:
+        """Refused before a run folder is made, so bad settings leave nothing behind."""
+        if self.teacher not in TEACHERS:
+            raise UserError(f"--teacher {self.teacher}: one of {', '.join(TEACHERS)}")
+        if not self.sampling_temperature > 0:
+            raise UserError(f"--sampling-temperature {self.sampling_temperature}: must be > 0")
+
 
 def env_options(s: Settings, split: str, count: int) -> dict:
     return {"split": split, "count": count, "max_steps": s.max_steps, "drc": s.drc}
@@ -78,14 +88,9 @@ def allowed(wrapped: dict, t: np.ndarray) -> bool:
     return bool(wrapped["index_mask"][t[0], t[1]] and wrapped["mode_mask"][t[0], t[2]])
 
 
-TEACHERS = {"scripted": ScriptedAgent, "scripted-shove": ShovingScriptedAgent}
-
-
 def scripted_demos(s: Settings, log: Callable[[str], None]) -> list[tuple[dict, np.ndarray]]:
     """(compact observation, triple) of the teacher agent on `bc_boards` train boards; the
     reader's memory follows every action the teacher takes."""
-    if s.teacher not in TEACHERS:
-        raise UserError(f"--teacher {s.teacher}: one of {', '.join(TEACHERS)}")
     env = make_rl_env(s.config, **env_options(s, "train", s.bc_boards))
     raw_env = env.unwrapped
     layout = features.Layout.from_options(raw_env.options)  # type: ignore[attr-defined]

@@ -156,28 +156,31 @@ def _reroute(router: WalkaroundRouter, request: RouteRequest, path, blockers, ex
     board = _with(_without(router.board, blockers), ours + list(extra))
     reroutes: list[Reroute] = []
     drops: list[ViaDrop] = []
-    expanded = [0]
+    joins: list[_Join] = []
     for net in sorted({b.net for b in blockers}):
         taken = [b for b in blockers if b.net == net]
         for group in _groups(taken):
             ends = _attachments(group, board)
-            width, clearance = max(t.width for t in group), max(t.clearance for t in group)
+            join = _Join(router, net, request.layer, max(t.width for t in group),
+                         max(t.clearance for t in group))
+            joins.append(join)
             for goal in ends[1:]:
-                join = _Join(router, net, request.layer, width, clearance, expanded)
                 found = join.route(board, request.layer, ends[0], goal)
                 if found.path is not None:
-                    reroutes.append(Reroute(net, tuple(found.path), width))
+                    reroutes.append(Reroute(net, tuple(found.path), join.width))
                     board = _with(board, join.items(request.layer, found.path))
                     continue
                 hop = join.through_via(board, group, ends[0], goal, vias) if vias else None
                 if hop is None:
                     return ShovePlan(None, f"push_n_shove: net {net!r} cannot be joined again "
                                            f"around the new path ({found.reason})",
-                                     stats={"method": "shove", "expanded": expanded[0]})
+                                     stats={"method": "shove",
+                                            "expanded": sum(j.expanded for j in joins)})
                 legs, drop, board = hop
                 reroutes += legs
                 drops.append(drop)
-    stats = {"method": "shove", "moved_tracks": len(blockers), "expanded": expanded[0],
+    expanded = sum(j.expanded for j in joins)
+    stats = {"method": "shove", "moved_tracks": len(blockers), "expanded": expanded,
              "moved_nets": len({b.net for b in blockers}), "reroutes": len(reroutes),
              "rejoin_vias": len(drops)}
     return ShovePlan(tuple(path), removed=tuple(blockers), reroutes=tuple(reroutes),
@@ -193,13 +196,13 @@ class _Join:
     layer: str
     width: int
     clearance: int
-    expanded: list[int]
+    expanded: int = 0  # search nodes expanded by its routes
 
     def route(self, board: BoardGeometry, layer: str, start: Point, goal: Point):
         found = self.router.with_board(board).route(RouteRequest(
             net=self.net, layer=layer, start=start, goal=goal, width=self.width,
             clearance=self.clearance))
-        self.expanded[0] += int(found.stats.get("expanded", 0))
+        self.expanded += int(found.stats.get("expanded", 0))
         return found
 
     def items(self, layer: str, path) -> list[CopperItem]:
@@ -210,11 +213,12 @@ class _Join:
         sits on the taken-up tracks' way, nearest the end that stays on this layer; the far
         end must reach the other layer."""
         diameter, drill = vias.via_of(self.net)
+        here = self.router.with_board(board)
         for near, far in ((a, b), (b, a)):
             for other in [la for la in vias.layers
                           if la != self.layer and _reaches(board, self.net, far, la)]:
-                fitting = [at for at in _via_spots(group, near) if self.router.with_board(
-                    board).via_fits(self.net, at, diameter, self.clearance, vias.layers)]
+                fitting = [at for at in _via_spots(group, near) if here.via_fits(
+                    self.net, at, diameter, self.clearance, vias.layers)]
                 for at in fitting[:VIA_TRIES]:
                     hop = self._hop(board, near, far, at, other, diameter, vias.layers)
                     if hop is not None:

@@ -203,8 +203,7 @@ class _Rules:
         self.corners: np.ndarray | None = None
         self.rays: dict[tuple[int, int, int], float] = {}
         self.ray_reach = 0.0
-        self.state: _StateKey | None = None  # the layer state and name these rules are for
-        self.layer_name = ""
+        self.layer_name = ""  # the layer these rules are for (`WalkaroundRouter._seed_rays`)
 
     def free(self, points: np.ndarray, headings: np.ndarray, length: float) -> np.ndarray:
         """How far a track may run from each point along its heading (index into `_HEADINGS`)
@@ -459,7 +458,7 @@ class WalkaroundRouter:
         memory.layers.move_to_end(key)
         code = shape.net_codes.get(net, -2)  # a net with no copper here owns nothing
         rules = _Rules(shape, code, width / 2, clearance, self.board.edge_clearance)
-        rules.state, rules.layer_name = key, layer
+        rules.layer_name = layer
         self._seed_rays(rules, key, net, width, clearance)
         memory.remember(memory.rules, rules_key, rules)
         return rules

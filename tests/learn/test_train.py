@@ -58,6 +58,16 @@ def test_train_end_to_end_killed_then_resumed(tmp_path, capsys):
     assert "other settings (seed)" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize(("option", "value", "message"), [
+    ("--teacher", "oracle", "one of scripted, scripted-shove"),
+    ("--sampling-temperature", "0", "must be > 0")])
+def test_bad_settings_are_refused_before_a_run_folder_exists(tmp_path, capsys, option, value,
+                                                            message):
+    out = tmp_path / "run"
+    assert main(["train", "--out", str(out), option, value]) == 2
+    assert message in capsys.readouterr().err and not out.exists()
+
+
 def test_a_missing_checkpoint_is_a_user_error(tmp_path):
     with pytest.raises(UserError, match="no such checkpoint"):
         make_agent(f"policy:{tmp_path / 'none.pt'}", 0)
