@@ -117,3 +117,24 @@ def test_a_lost_connection_is_undone(make_env, expert_set, shoving_episode, monk
     np.testing.assert_array_equal(obs2["routing_geometry"]["tracks"],
                                   obs["routing_geometry"]["tracks"])
     np.testing.assert_array_equal(obs2["routing_geometry"]["vias"], obs["routing_geometry"]["vias"])
+
+
+HOP_BOARD = "board_00005"  # a d2-expert board where a moved net is joined again by a via
+
+
+@pytest.fixture(scope="module")
+def hop_episode(tmp_path_factory):
+    env = _make(write_set(tmp_path_factory.mktemp("hop"), "d2-expert", "test", 6))
+    try:
+        yield _episode(env, HOP_BOARD)
+    finally:
+        env.close()
+
+
+def test_a_rejoin_through_a_via_keeps_connections_and_clearance_in_kicad(hop_episode):
+    hops = [s for s in hop_episode[2] if s[1]["ok"] and s[1]["stats"].get("rejoin_vias")]
+    assert hops, "the board no longer needs a via re-join"
+    for _, router, before, after, clusters, clusters_after, _, _ in hops:
+        new = {v["type"] for v in after} - {v["type"] for v in before}
+        assert not new & ERRORS, new
+        assert all(clusters_after[n] <= clusters[n] for n in clusters)
