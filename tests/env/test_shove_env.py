@@ -134,7 +134,7 @@ def hop_episode(tmp_path_factory):
 def test_a_rejoin_through_a_via_keeps_connections_and_clearance_in_kicad(hop_episode):
     hops = [s for s in hop_episode[2] if s[1]["ok"] and s[1]["stats"].get("rejoin_vias")]
     assert hops, "the board no longer needs a via re-join"
-    for _, router, before, after, clusters, clusters_after, _, _ in hops:
+    for _, _, before, after, clusters, clusters_after, _, _ in hops:
         new = {v["type"] for v in after} - {v["type"] for v in before}
         assert not new & ERRORS, new
         assert all(clusters_after[n] <= clusters[n] for n in clusters)
