@@ -6,9 +6,10 @@ and `info["action_mask"]`.
 the shortest open ratsnest edge, on a layer both pads share if any, and calls `finish` in
 `walkaround` mode until the net is joined; when the head's layer has no reachable pad it drops
 a via at the head (never on a drilled pad: it restarts on the pad's other layer instead) and
-goes on from the other layer; it releases the net when done or out of ideas (the
-environment's `net_end` then takes up the vias and stubs of routes that went nowhere, with its
-default `cleanup`). With
+goes on from the other layer; where that via does not fit on a pad (a fine-pitch row), it
+drops one a ring step beside the pad, facing the net's nearest open end first; it releases
+the net when done or out of ideas (the environment's `net_end` then takes up the vias and
+stubs of routes that went nowhere, with its default `cleanup`). With
 `shove=True` (`ShovingScriptedAgent`, `--agent scripted-shove`) a `finish` that walkaround cannot
 route is tried once more in `push_n_shove` mode before the via.
 """
@@ -16,9 +17,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from pcbdata.env.candidates import RING_SLOTS
 from pcbdata.env.types import (
     FINISH,
     IDLE,
+    MAKE_LINE,
     MAKE_VIA,
     NET,
     NET_END,
@@ -29,6 +32,9 @@ from pcbdata.env.types import (
     START_ROUTE,
     WALKAROUND,
 )
+
+#: Ring steps an escape may walk from a surface pad before it gives up on a via.
+ESCAPE_WALK = 2
 
 
 def action(kind: int, net: int = 0, candidate: int = 0, mode: int = WALKAROUND) -> dict:
@@ -76,6 +82,9 @@ class ScriptedAgent:
         self._finish_failed: set[tuple] = set()
         self._shove_failed: set[tuple] = set()
         self._vias: set[tuple] = set()
+        self._vias_beside: set[tuple] = set()  # (head, ring slot or "walk") tried
+        self._walked: dict[tuple, tuple] = {}  # heads an escape walk reached: (depth, goal)
+        self._walking: tuple | None = None
         self._last, self._last_mode = IDLE, self.mode
         self.done = False
 
@@ -87,6 +96,9 @@ class ScriptedAgent:
         if self._last == FINISH and info.get("router") and not info["router"]["ok"]:
             failed = self._shove_failed if self._last_mode == PUSH_N_SHOVE else self._finish_failed
             failed.add(self._head_key(obs))
+        if self._walking and info.get("router") and info["router"]["ok"]:
+            self._walked[self._head_key(obs)] = self._walking
+        self._walking = None
         phase = int(head["phase"])
         if phase == NO_NET:
             chosen = self._select(obs, info)
@@ -164,7 +176,28 @@ class ScriptedAgent:
         if via is not None:
             self._vias.add(key[:2])
             return action(MAKE_VIA, candidate=via, mode=self.mode)
-        return action(NET_END)  # restart from another pad or layer, or give the net up
+        return self._escape(obs, info, key) or action(NET_END)  # restart, or give up
+
+    def _escape(self, obs, info, key: tuple) -> dict | None:
+        """Off a surface pad where no via fits (a fine-pitch row): a via one ring step beside
+        the head, else a ring step's walk (at most ESCAPE_WALK) and the same from there."""
+        if self._on_surface_pad(obs, key):
+            depth, toward = 0, self._nearest_open_end(obs, key)
+        else:
+            depth, toward = self._walked.get(key, (None, None))
+        if depth is None or toward is None or not info["action_mask"]["type"][MAKE_VIA]:
+            return None  # elsewhere the head can move first; a drilled pad spans the layers
+        slots = self._facing_slots(obs, info, key, toward, "candidate_via", wide=depth == 0)
+        slots = [i for i in slots if (key, i) not in self._vias_beside]
+        if slots:
+            self._vias_beside.add((key, slots[0]))
+            return action(MAKE_VIA, candidate=slots[0], mode=self.mode)
+        walks = self._facing_slots(obs, info, key, toward, "candidate", wide=False)
+        if depth < ESCAPE_WALK and walks and (key, "walk") not in self._vias_beside:
+            self._vias_beside.add((key, "walk"))
+            self._walking = (depth + 1, toward)
+            return action(MAKE_LINE, candidate=walks[0], mode=self.mode)
+        return None
 
     def _via_here(self, obs, info, key: tuple) -> int | None:
         """The candidate at the head for a via, unless the head sits on a drilled pad or a via
@@ -178,6 +211,35 @@ class ScriptedAgent:
             if info["action_mask"]["candidate_via"][i] and (c[1], c[2], int(c[3])) == key:
                 return i
         return None
+
+    @staticmethod
+    def _facing_slots(obs, info, key: tuple, toward, mask: str, wide: bool) -> list[int]:
+        """Ring slots allowed by `mask`, facing `toward` first; all eight when `wide`, else
+        those within 90 degrees of it."""
+        cands = obs["router_head"]["candidates"]
+        heading = np.arctan2(toward[1] - key[1], toward[0] - key[0])
+
+        def turn(i: int) -> float:
+            angle = np.arctan2(cands[i][2] - key[1], cands[i][1] - key[0]) - heading
+            return round(float(abs((angle + np.pi) % (2 * np.pi) - np.pi)), 6)
+        slots = [i for i in range(RING_SLOTS) if info["action_mask"][mask][i]
+                 and (wide or turn(i) <= np.pi / 2 + 1e-6)]
+        return sorted(slots, key=lambda i: (turn(i), i))
+
+    @staticmethod
+    def _on_surface_pad(obs, key: tuple) -> bool:
+        static = obs["board_static"]["pads"]
+        here = (static[:, 0] == 1) & (static[:, 2] == key[0]) & (static[:, 3] == key[1])
+        return bool(here.any() and not (static[here, 7] > 0).any())
+
+    @staticmethod
+    def _nearest_open_end(obs, key: tuple) -> tuple[float, float] | None:
+        net = int(obs["router_head"]["net"])
+        ends = [(float(e[k]), float(e[k + 1])) for e in open_edges(obs) if int(e[1]) == net
+                for k in (2, 4)]
+        ends = [p for p in ends if p != key[:2]]
+        return min(ends, key=lambda p: ((p[0] - key[0]) ** 2 + (p[1] - key[1]) ** 2, p),
+                   default=None)
 
 
 class ShovingScriptedAgent(ScriptedAgent):

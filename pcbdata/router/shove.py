@@ -14,8 +14,9 @@ KiCad stays the judge. A request is planned in three steps:
    the same layer has no way round (the new path cuts the moved net off, as between the pads of
    a fine-pitch row), the join may hop to another copper layer through one via of the moved
    net's size, placed on the taken-up track's way, when the far end reaches that layer (a
-   through-hole pad, a via). If any net cannot be joined again, the plan fails and the board
-   stays as it was.
+   through-hole pad, a via); where neither end does, under the new path: a via near each end
+   and a leg on another layer between them. If any net cannot be joined again, the plan fails
+   and the board stays as it was.
 
 Every new path is a walkaround path, so it keeps clearance by construction; the environment
 then applies the plan in one KiCad round trip and undoes it if KiCad's connectivity shows that
@@ -68,6 +69,9 @@ class ViaRules:
 VIA_SPOTS = 12
 VIA_SPOT_STEP = 250_000
 VIA_TRIES = 2
+#: A re-join under the cut (a via near each end) also looks beside those places, this far
+#: away in the eight directions (nm).
+UNDER_OFFSETS = (500_000, 1_000_000)
 
 
 @dataclass(frozen=True)
@@ -157,6 +161,7 @@ def _reroute(router: WalkaroundRouter, request: RouteRequest, path, blockers, ex
     reroutes: list[Reroute] = []
     drops: list[ViaDrop] = []
     joins: list[_Join] = []
+    under = 0  # re-joins on another layer with a via near each end
     for net in sorted({b.net for b in blockers}):
         taken = [b for b in blockers if b.net == net]
         for group in _groups(taken):
@@ -171,18 +176,21 @@ def _reroute(router: WalkaroundRouter, request: RouteRequest, path, blockers, ex
                     board = _with(board, join.items(request.layer, found.path))
                     continue
                 hop = join.through_via(board, group, ends[0], goal, vias) if vias else None
+                if hop is None and vias:
+                    hop = join.under(board, group, ends[0], goal, vias)
+                    under += hop is not None
                 if hop is None:
                     return ShovePlan(None, f"push_n_shove: net {net!r} cannot be joined again "
                                            f"around the new path ({found.reason})",
                                      stats={"method": "shove",
                                             "expanded": sum(j.expanded for j in joins)})
-                legs, drop, board = hop
+                legs, dropped, board = hop
                 reroutes += legs
-                drops.append(drop)
+                drops += dropped
     expanded = sum(j.expanded for j in joins)
     stats = {"method": "shove", "moved_tracks": len(blockers), "expanded": expanded,
              "moved_nets": len({b.net for b in blockers}), "reroutes": len(reroutes),
-             "rejoin_vias": len(drops)}
+             "rejoin_vias": len(drops), "rejoins_under": under}
     return ShovePlan(tuple(path), removed=tuple(blockers), reroutes=tuple(reroutes),
                      vias=tuple(drops), stats=stats)
 
@@ -223,12 +231,52 @@ class _Join:
                     hop = self._hop(board, near, far, at, other, diameter, vias.layers)
                     if hop is not None:
                         legs, board_after = hop
-                        return legs, ViaDrop(self.net, at, diameter, drill), board_after
+                        return legs, [ViaDrop(self.net, at, diameter, drill)], board_after
         return None
 
+    def under(self, board: BoardGeometry, group, a: Point, b: Point, vias: ViaRules):
+        """(legs, vias, board with them) joining a and b on another layer, under the cut: a
+        via on the taken-up tracks' way near each end, or None."""
+        diameter, drill = vias.via_of(self.net)
+        here = self.router.with_board(board)
+        spots = {}
+        for end in (a, b):
+            around = _spots_around(_via_spots(group, end), end)
+            fits = here.vias_fit(self.net, around, diameter, self.clearance, vias.layers)
+            spots[end] = [at for at, ok in zip(around, fits) if ok][:VIA_TRIES]
+        apart = diameter + self.clearance  # two holes of one net need room between them too
+        for other in [layer for layer in vias.layers if layer != self.layer]:
+            for at_a in spots[a]:
+                for at_b in spots[b]:
+                    if _distance(at_a, at_b) < apart:
+                        continue
+                    legs = self._under(board, (a, at_a, at_b, b), other, diameter, vias.layers)
+                    if legs is not None:
+                        drops = [ViaDrop(self.net, at, diameter, drill) for at in (at_a, at_b)]
+                        return legs[0], drops, legs[1]
+        return None
+
+    def _under(self, board, points, other, diameter, layers):
+        """Legs a -> via (this layer), via -> via (`other`), via -> b (this layer)."""
+        a, at_a, at_b, b = points
+        legs = []
+        for start, goal, layer in ((a, at_a, self.layer), (at_a, at_b, other),
+                                   (at_b, b, self.layer)):
+            path = (start,) if start == goal else self.route(board, layer, start, goal).path
+            if path is None:
+                return None
+            board = _with(board, self.items(layer, path))
+            if layer == other:  # both vias once the middle leg is known to exist
+                board = _with(board, [self._via(at, diameter, layers) for at in (at_a, at_b)])
+            legs.append(Reroute(self.net, tuple(path), self.width, layer))
+        return [leg for leg in legs if len(leg.path) > 1], board
+
+    def _via(self, at: Point, diameter: int, layers) -> CopperItem:
+        return CopperItem(kind="via", net=self.net, layers=tuple(layers), start=at, end=at,
+                          width=diameter, clearance=self.clearance)
+
     def _hop(self, board, near, far, at, other, diameter, layers):
-        via_item = CopperItem(kind="via", net=self.net, layers=tuple(layers), start=at, end=at,
-                              width=diameter, clearance=self.clearance)
+        via_item = self._via(at, diameter, layers)
         first = (near,) if at == near else self.route(board, self.layer, near, at).path
         if first is None:
             return None
@@ -260,6 +308,23 @@ def _via_spots(group: list[CopperItem], near: Point) -> list[Point]:
             spots.add((int(round(x)), int(round(y))))
     return sorted(spots, key=lambda p: ((p[0] - near[0]) ** 2 + (p[1] - near[1]) ** 2, p))[
         :VIA_SPOTS]
+
+
+def _spots_around(spots: list[Point], near: Point) -> list[Point]:
+    """The spots and points beside them (UNDER_OFFSETS in the eight directions), nearest `near`
+    first: a taken-up track often runs where no via fits, beside pads."""
+    out = set(spots)
+    for x, y in spots:
+        for radius in UNDER_OFFSETS:
+            diagonal = round(radius / np.sqrt(2))
+            for dx, dy in ((1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1)):
+                step = radius if dx == 0 or dy == 0 else diagonal
+                out.add((x + dx * step, y + dy * step))
+    return sorted(out, key=lambda p: ((p[0] - near[0]) ** 2 + (p[1] - near[1]) ** 2, p))
+
+
+def _distance(a: Point, b: Point) -> float:
+    return float(np.hypot(a[0] - b[0], a[1] - b[1]))
 
 
 def _groups(tracks: list[CopperItem]) -> list[list[CopperItem]]:

@@ -387,12 +387,33 @@ class WalkaroundRouter:
         self, net: str, at: Point, diameter: int, clearance: int, layers: tuple[str, ...]
     ) -> bool:
         """Whether a via of this diameter at `at` keeps clearance on every layer and to the edge."""
-        if not self._inside(np.array([at], dtype=float))[0]:
-            return False
-        dot = _segments([at])
-        return not any(
-            self._rules(net, layer, diameter, clearance).failing(dot)[0] for layer in layers
-        )
+        return bool(self.vias_fit(net, [at], diameter, clearance, layers)[0])
+
+    def vias_fit(
+        self, net: str, points, diameter: int, clearance: int, layers: tuple[str, ...]
+    ) -> np.ndarray:
+        """`via_fits` for many points at once (one clearance check per layer). The net's own
+        drilled copper (vias, pads on several layers) counts too: holes keep apart whatever
+        their nets (KiCad's hole_to_hole), so a via may not overlap one."""
+        at = np.asarray(points, dtype=float).reshape(-1, 2)
+        fits = self._inside(at)
+        dots = np.repeat(at[:, None, :], 2, axis=1)
+        for layer in layers:
+            if fits.any():
+                fits &= ~self._rules(net, layer, diameter, clearance).failing(dots)
+        if fits.any():
+            fits &= ~self._on_own_holes(net, at, diameter)
+        return fits
+
+    def _on_own_holes(self, net: str, at: np.ndarray, diameter: int) -> np.ndarray:
+        drilled = [item for item in self.board.copper if item.net == net and (
+            item.kind == "via" or (item.kind == "pad" and len(item.layers) > 1))]
+        over = np.zeros(len(at), dtype=bool)
+        dots = shapely.points(at)
+        for item in drilled:
+            core, radius = copper_core(item)
+            over |= shapely.distance(core, dots) < radius + diameter / 2
+        return over
 
     # --- routing ---
 

@@ -26,14 +26,14 @@ def test_undo_reverses_edits():
 
 # --- in KiCad -----------------------------------------------------------------------------
 
-SHOVE_BOARD = "board_00001"  # a d2-expert board where shoves succeed and fail
+SHOVE_BOARD = "board_00003"  # a d2-expert board where shoves succeed and fail
 ERRORS = {"clearance", "shorting_items", "tracks_crossing", "copper_edge_clearance",
-          "hole_clearance"}
+          "hole_clearance", "hole_to_hole"}
 
 
 @pytest.fixture(scope="module")
 def expert_set(tmp_path_factory):
-    return write_set(tmp_path_factory.mktemp("expert"), "d2-expert", "test", 2)
+    return write_set(tmp_path_factory.mktemp("expert"), "d2-expert", "test", 4)
 
 
 def _make(root):
@@ -117,6 +117,16 @@ def test_a_lost_connection_is_undone(make_env, expert_set, shoving_episode, monk
     np.testing.assert_array_equal(obs2["routing_geometry"]["tracks"],
                                   obs["routing_geometry"]["tracks"])
     np.testing.assert_array_equal(obs2["routing_geometry"]["vias"], obs["routing_geometry"]["vias"])
+
+
+def test_a_rejoin_under_the_new_path_keeps_connections_and_clearance_in_kicad(shoving_episode):
+    """On this board a moved net is joined again on the other layer, a via near each end."""
+    under = [s for s in shoving_episode[2] if s[1]["ok"] and s[1]["stats"].get("rejoins_under")]
+    assert under, "the board no longer needs a re-join under the new path"
+    for _, _, before, after, clusters, clusters_after, _, _ in under:
+        new = {v["type"] for v in after} - {v["type"] for v in before}
+        assert not new & ERRORS, new
+        assert all(clusters_after[n] <= clusters[n] for n in clusters)
 
 
 HOP_BOARD = "board_00005"  # a d2-expert board where a moved net is joined again by a via

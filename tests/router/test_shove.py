@@ -122,3 +122,36 @@ def test_a_cut_off_net_is_joined_again_through_a_via_when_its_far_end_reaches_an
     under = request("B", (10, 9.9), (10, 3), layer="B.Cu", width=leg.width)
     assert min(exact_gaps(final, under, leg.path)) >= 0
     assert plan(WalkaroundRouter(geometry), req).path is None  # without vias: as before
+
+
+def test_a_cut_off_net_with_both_ends_on_one_layer_is_joined_again_under_the_new_path():
+    """Both of B's pads are surface pads on F.Cu: B goes down through a via near one end, runs
+    on B.Cu under A's new path and comes up through a via near the other end."""
+    from pcbdata.router.shove import ViaRules
+
+    geometry = board(pad("A", 1, 9), pad("A", 19, 9), pad("B", 10, 9.9, size=0.2),
+                     pad("B", 10, 3, size=0.6), wall("B", 10, 3, 10, 9.9, 0.25),
+                     outline=(((0, 2 * MM), (20 * MM, 2 * MM), (20 * MM, 10.6 * MM),
+                               (0, 10.6 * MM)),))
+    req = request("A", (1, 9), (19, 9))
+    vias = ViaRules(("F.Cu", "B.Cu"), lambda net: (400_000, 200_000))
+    done = plan(WalkaroundRouter(geometry), req, vias=vias)
+    assert done.path is not None, done.reason
+    assert len(done.vias) == 2 and done.stats["rejoin_vias"] == 2
+    assert done.stats["rejoins_under"] == 1
+    assert {r.layer for r in done.reroutes} >= {"B.Cu"}
+    dropped = tuple(CopperItem("via", "B", ("F.Cu", "B.Cu"), start=v.at, end=v.at,
+                               width=v.diameter, clearance=CLEARANCE) for v in done.vias)
+    final = _after(geometry, done, req)
+    final = BoardGeometry(final.outline, final.copper + dropped, final.edge_clearance)
+    assert min(exact_gaps(final, req, done.path)) >= 0  # A keeps clear of both vias
+    for leg in done.reroutes:  # each leg keeps clear of everything of other nets
+        check = request("B", (10, 9.9), (10, 3), layer=leg.layer, width=leg.width)
+        assert min(exact_gaps(final, check, leg.path)) >= 0
+    legs = {r.layer: r.path for r in done.reroutes}
+    via_points = {v.at for v in done.vias}
+    assert {legs["B.Cu"][0], legs["B.Cu"][-1]} == via_points  # B.Cu runs via to via
+    # Each pad of B reaches a via on F.Cu (a leg, or the via sits on the pad).
+    ends = {p for r in done.reroutes if r.layer == "F.Cu" for p in (r.path[0], r.path[-1])}
+    for pad_at in ((10 * MM, 9_900_000), (10 * MM, 3 * MM)):
+        assert pad_at in ends or pad_at in via_points

@@ -268,6 +268,21 @@ def test_via_fits_checks_every_layer_and_the_edge():
     assert not router.via_fits("A", (600_000, 10 * MM), 600_000, CLEARANCE, ("F.Cu",))
 
 
+def test_a_via_keeps_off_its_own_nets_drilled_copper_but_not_its_surface_pads():
+    """Holes keep apart whatever their nets (KiCad's hole_to_hole): a via may not overlap a
+    through-hole pad or a via of its own net; on a surface pad of its net it may sit."""
+    both = ("F.Cu", "B.Cu")
+    via = CopperItem("via", "A", both, start=(14 * MM, 10 * MM), end=(14 * MM, 10 * MM),
+                     width=600_000, clearance=CLEARANCE)
+    router = WalkaroundRouter(board(pad("A", 6, 10, size=1.6, layers=both),
+                                    pad("A", 10, 10, size=1.6), via))
+    fits = router.vias_fit("A", [(6 * MM, 10 * MM), (6 * MM + 900_000, 10 * MM),
+                                 (6 * MM + 1_500_000, 10 * MM), (10 * MM, 10 * MM),
+                                 (14 * MM + 500_000, 10 * MM), (14 * MM + 700_000, 10 * MM)],
+                           600_000, CLEARANCE, both)
+    assert fits.tolist() == [False, False, True, True, False, True]
+
+
 def test_a_gap_equal_to_the_clearance_is_legal_and_one_nm_less_is_not():
     """D1-10's geometry: a track leaving a pad runs at exactly the edge clearance from the edge
     and exactly the clearance from the pad of the next cell (KiCad's DRC accepts both)."""
