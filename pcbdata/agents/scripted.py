@@ -6,8 +6,9 @@ and `info["action_mask"]`.
 the shortest open ratsnest edge, on a layer both pads share if any, and calls `finish` in
 `walkaround` mode until the net is joined; when the head's layer has no reachable pad it drops
 a via at the head (never on a drilled pad: it restarts on the pad's other layer instead) and
-goes on from the other layer; where that via does not fit on a pad (a fine-pitch row), it
-drops one a ring step beside the pad, facing the net's nearest open end first; it releases
+goes on from the other layer; where that via does not fit on a surface pad (a fine-pitch
+row), it drops one a ring step beside the pad, facing the net's nearest open end first, else
+walks a ring step toward that end (at most `ESCAPE_WALK`) and tries there; it releases
 the net when done or out of ideas (the environment's `net_end` then takes up the vias and
 stubs of routes that went nowhere, with its default `cleanup`). With
 `shove=True` (`ShovingScriptedAgent`, `--agent scripted-shove`) a `finish` that walkaround cannot
@@ -167,16 +168,21 @@ class ScriptedAgent:
         if not any(int(e[1]) == net for e in open_edges(obs)):
             return action(NET_END)
         key = self._head_key(obs)
+        if key in self._walked:  # a ring step from where `finish` failed: a via, or walk on
+            return self._via_action(obs, info, key) or action(NET_END)
         if m["type"][FINISH] and m["mode"][self.mode] and key not in self._finish_failed:
             return action(FINISH, mode=self.mode)
         if self.shove and m["type"][FINISH] and m["mode"][PUSH_N_SHOVE] \
                 and key not in self._shove_failed:
             return action(FINISH, mode=PUSH_N_SHOVE)
+        return self._via_action(obs, info, key) or action(NET_END)  # restart, or give up
+
+    def _via_action(self, obs, info, key: tuple) -> dict | None:
         via = self._via_here(obs, info, key)
         if via is not None:
             self._vias.add(key[:2])
             return action(MAKE_VIA, candidate=via, mode=self.mode)
-        return self._escape(obs, info, key) or action(NET_END)  # restart, or give up
+        return self._escape(obs, info, key)
 
     def _escape(self, obs, info, key: tuple) -> dict | None:
         """Off a surface pad where no via fits (a fine-pitch row): a via one ring step beside
