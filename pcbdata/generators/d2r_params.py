@@ -65,7 +65,7 @@ class D2RParams(GeneratorParams):
     connected_fraction: float = 0.8
     signal_net_sizes: dict[str, float] = field(default_factory=lambda: {
         "2": 0.66, "3": 0.2, "4": 0.08, "5": 0.04, "6": 0.02})
-    locality: int = 6
+    locality: int = 3
     max_connections: int = KICAD_MAX_UNCONNECTED
     compactness: int = 4
     edge_clearance_mm: float = 0.5
