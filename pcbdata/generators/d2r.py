@@ -24,6 +24,7 @@ __all__ = ["D2RGenerator", "D2RParams"]
 _ATTEMPTS_PER_PART = 150
 _GROWTH = 1.05  # a board whose parts do not fit is redrawn this much larger
 _RESTARTS = 40
+_TARGET_REDRAWS = 20
 _RAILS = ("+3V3", "+5V", "+1V8", "+12V")
 _THT_STYLE = ("axial", "radial", "dip")
 _SMD_STYLE = ("passive", "sot23", "soic", "tssop", "qfn", "qfp")
@@ -109,22 +110,32 @@ class D2RGenerator:
         return min(high, max(low, int(round(value))))
 
     def _pad_target(self, stream: Stream, components: int) -> int:
-        """Terminal pads to aim for: components times a lognormal ratio, within the range."""
+        """Terminal pads to aim for: components times a lognormal ratio, within the range. A
+        target outside the range is drawn again (clipping it would pile boards up at the
+        range's ends, where real tiers have no such peaks), and clipped only after
+        `_TARGET_REDRAWS` draws (a count far outside the range)."""
         p = self.params
-        ratio = math.exp(math.log(p.pads_per_component_median)
-                         + p.pads_per_component_sigma * _normal(stream))
         low, high = p.pads_range
-        return min(high, max(low, int(round(components * ratio))))
+        target = low
+        for _ in range(_TARGET_REDRAWS):
+            ratio = math.exp(math.log(p.pads_per_component_median)
+                             + p.pads_per_component_sigma * _normal(stream))
+            target = int(round(components * ratio))
+            if low <= target <= high:
+                return target
+        return min(high, max(low, target))
 
     def _board_mix(self, stream: Stream) -> tuple[dict[str, float], float]:
         """The part mix of one board and its SMD lean: real boards lean through-hole or SMD as
         a whole, so the two groups' weights are tilted by one draw per board (`style_spread`
-        0: no tilt)."""
+        0: no tilt; above 1 a share of the boards, growing with it, has no part of the other
+        group at all, as many real boards)."""
         tilt = self.params.style_spread * (2 * stream.random() - 1)
-        factor = {kind: 1 + tilt for kind in _THT_STYLE}
-        factor.update({kind: 1 - tilt for kind in _SMD_STYLE})
+        factor = {kind: max(0.0, 1 + tilt) for kind in _THT_STYLE}
+        factor.update({kind: max(0.0, 1 - tilt) for kind in _SMD_STYLE})
         mix = {k: w * factor.get(k, 1.0) for k, w in self.params.part_mix.items()}
-        return (mix if sum(mix.values()) > 0 else dict(self.params.part_mix)), (1 - tilt) / 2
+        lean = min(1.0, max(0.0, (1 - tilt) / 2))
+        return (mix if sum(mix.values()) > 0 else dict(self.params.part_mix)), lean
 
     def _board_passives(self, stream: Stream) -> dict[str, float]:
         """The passive sizes of one board: designers keep to one size, so one drawn size takes

@@ -18,7 +18,7 @@ SMALLEST_PAD_DRILL_MM = 0.75
 # could not confirm a board with more missing connections than that.
 KICAD_MAX_UNCONNECTED = 499
 _PROBABILITY_TABLES = ("part_mix", "passive_sizes", "outline_mix", "signal_net_sizes")
-_FRACTIONS = ("style_spread", "passive_size_consistency", "back_side_fraction",
+_FRACTIONS = ("passive_size_consistency", "back_side_fraction",
               "four_layer_fraction", "exposed_pad_fraction", "mounting_hole_fraction",
               "decoupling_fraction", "connected_fraction", "two_row_header_fraction",
               "fill_style_coupling")
@@ -30,15 +30,15 @@ class D2RParams(GeneratorParams):
     """Every knob of a realistic board; lengths in mm. The defaults are level `b`'s (D3-B);
     docs/realistic.md explains each."""
 
-    components_median: float = 18.0
-    components_sigma: float = 0.4
+    components_median: float = 17.0
+    components_sigma: float = 0.5
     components_range: tuple[int, int] = (4, 45)
     pads_per_component_median: float = 3.2
     pads_per_component_sigma: float = 0.15
     pads_range: tuple[int, int] = (38, 90)
     part_mix: dict[str, float] = field(default_factory=lambda: {
-        "passive": 0.28, "axial": 0.14, "radial": 0.13, "sot23": 0.06, "soic": 0.06,
-        "tssop": 0.01, "dip": 0.07, "qfn": 0.006, "qfp": 0.004, "header": 0.16,
+        "passive": 0.283, "axial": 0.14, "radial": 0.13, "sot23": 0.06, "soic": 0.06,
+        "tssop": 0.008, "dip": 0.07, "qfn": 0.005, "qfp": 0.004, "header": 0.16,
         "connector": 0.08})
     style_spread: float = 1.0
     passive_sizes: dict[str, float] = field(default_factory=lambda: {
@@ -65,7 +65,7 @@ class D2RParams(GeneratorParams):
     connected_fraction: float = 0.8
     signal_net_sizes: dict[str, float] = field(default_factory=lambda: {
         "2": 0.66, "3": 0.2, "4": 0.08, "5": 0.04, "6": 0.02})
-    locality: int = 6
+    locality: int = 3
     max_connections: int = KICAD_MAX_UNCONNECTED
     compactness: int = 4
     edge_clearance_mm: float = 0.5
@@ -75,8 +75,8 @@ class D2RParams(GeneratorParams):
     track_width_mm: float = 0.15
     via_diameter_mm: float = 0.6
     via_drill_mm: float = 0.3
-    power_clearance_mm: float = 0.2
-    power_track_width_mm: float = 0.4
+    power_clearance_mm: float = 0.15
+    power_track_width_mm: float = 0.25
     power_via_diameter_mm: float = 0.8
     power_via_drill_mm: float = 0.4
 
@@ -100,6 +100,8 @@ class D2RParams(GeneratorParams):
         if not low <= self.components_median <= high:
             out.append(f"components_median must lie in components_range, got "
                        f"{self.components_median}")
+        if not 0 <= self.style_spread <= 2:
+            out.append(f"style_spread must be from 0 to 2, got {self.style_spread}")
         for name in ("components_sigma", "pads_per_component_sigma"):
             if not 0 <= getattr(self, name) <= 3:
                 out.append(f"{name} must be from 0 to 3, got {getattr(self, name)}")

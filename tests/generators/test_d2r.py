@@ -10,6 +10,7 @@ import pytest
 from shapely.geometry import Polygon, box
 
 from pcbdata.core.errors import UserError
+from pcbdata.core.rng import Stream
 from pcbdata.core.tree import PROJECT_FILE, RULES_FILE
 from pcbdata.generators import D2RGenerator, D2RParams
 from pcbdata.generators.d2r import pad_position
@@ -152,8 +153,9 @@ def test_net_classes_are_written_to_the_project_and_the_custom_rules():
     assert patterns["GND"] == "Power" and not any(n.startswith("N") for n in patterns)
     rules = files[RULES_FILE]
     assert "(condition \"A.NetClass == 'Power'\")" in rules
-    assert "(constraint track_width (min 0.4mm))" in rules
-    assert "(constraint clearance (min 0.2mm))" in rules
+    assert f"(constraint track_width (min {params.power_track_width_mm:g}mm))" in rules
+    assert f"(constraint clearance (min {params.power_clearance_mm:g}mm))" in rules
+    assert f"(constraint via_diameter (min {params.power_via_diameter_mm:g}mm))" in rules
 
 
 def test_levels_follow_their_tier_sizes():
@@ -189,6 +191,28 @@ def test_fill_style_coupling_makes_smd_boards_the_dense_ones():
     assert coupled > 0.5 and coupled > free + 0.2
 
 
+def test_pad_targets_outside_the_range_are_drawn_again_not_piled_at_its_ends():
+    """Clipping a lognormal target to a narrow range piles a third of the boards on its two
+    ends; drawing again spreads them over the range, as real tiers are."""
+    generator = d2r_config("a", {"pads_range": [15, 25],
+                                 "pads_per_component_sigma": 0.5}).generator()
+    targets = [generator._pad_target(Stream(0, "d2r", 0, "test", i), 6)
+               for i in range(400)]
+    assert 15 <= min(targets) and max(targets) <= 25
+    at_ends = sum(t in (15, 25) for t in targets) / len(targets)
+    assert at_ends < 0.2
+
+
+def test_a_style_spread_above_one_makes_boards_of_one_style_only():
+    def pure(spread: float) -> int:
+        mixed = {"passive": 0.5, "axial": 0.5}
+        kinds = [{p.name.split("_")[0] for p in board.parts}
+                 for board in _boards("a", 40, {"style_spread": spread, "part_mix": mixed})]
+        return sum(len(k) == 1 for k in kinds)
+
+    assert pure(2.0) > 10 and pure(2.0) > pure(1.0) + 5
+
+
 @pytest.mark.parametrize("overrides, message", [
     ({"components_medain": 5}, "did you mean 'components_median'"),
     ({"part_mix": {"passive": 0.5, "qfn": 0.2}}, "part_mix probabilities must sum to 1"),
@@ -196,6 +220,7 @@ def test_fill_style_coupling_makes_smd_boards_the_dense_ones():
     ({"qfn_pitches_mm": [0.3]}, "qfn_pitches_mm must list pitches"),
     ({"radial_pitches_mm": [1.0]}, "radial_pitches_mm must list pitches from 2 to 10 mm"),
     ({"fill_style_coupling": 1.5}, "fill_style_coupling must be in [0, 1]"),
+    ({"style_spread": 2.5}, "style_spread must be from 0 to 2"),
     ({"power_clearance_mm": 0.25}, "above the library's smallest gap"),
     ({"via_drill_mm": 0.8, "via_diameter_mm": 1.2, "power_via_drill_mm": 0.8,
       "power_via_diameter_mm": 1.2}, "above the library's smallest pad hole"),
