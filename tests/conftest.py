@@ -76,6 +76,23 @@ def _subset(checkout: Path) -> list[str]:
     return sorted(set(chosen))
 
 
+def build_from_snapshot(root: Path, names: list[str], kicad_pool, why: str) -> tuple[Path, dict]:
+    """The D3 set built (packaged recipe) from only these PCBench folders, unpacked under
+    `root`: (set folder, build summary). Skips, saying `why`, without the snapshot."""
+    if not SHARED_PCBENCH.is_file():
+        pytest.skip(f"{why} come from the PCBench snapshot at {SHARED_PCBENCH} (absent on this "
+                    f"machine)")
+    from pcbdata.curation.build import build
+    from pcbdata.spec.recipe import load_recipe
+
+    source = root / "pcbench"
+    source.mkdir()
+    subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(source), "LICENSE",
+                    "github_meta", *(f"PCBs/{name}" for name in names)], check=True)
+    summary = build(source, root / "set", load_recipe(), pool=kicad_pool, log=lambda line: None)
+    return root / "set", summary
+
+
 @pytest.fixture(scope="session")
 def real_subset(tmp_path_factory, kicad_pool):
     """A CI-sized subset of the PCBench snapshot built with the packaged recipe (D3-A, B, C

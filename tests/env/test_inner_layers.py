@@ -3,8 +3,6 @@ smallest board with inner layers in the shipped release manifests), built alone 
 PCBench snapshot."""
 from __future__ import annotations
 
-import subprocess
-
 import numpy as np
 import pytest
 
@@ -17,27 +15,17 @@ from pcbdata.env.types import (
     START_ROUTE,
     WALKAROUND,
 )
-from tests.conftest import SHARED_PCBENCH
+from tests.conftest import build_from_snapshot
 
 FOUR_LAYERS = "radio_saw_dcc6c"
 
 
 @pytest.fixture(scope="module")
 def four_layer_set(tmp_path_factory, kicad_pool):
-    if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"the four-layer board comes from the PCBench snapshot at {SHARED_PCBENCH} "
-                    f"(absent on this machine)")
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
-
-    root = tmp_path_factory.mktemp("four")
-    source = root / "pcbench"
-    source.mkdir()
-    subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(source), "LICENSE",
-                    "github_meta", f"PCBs/{FOUR_LAYERS}"], check=True)
-    summary = build(source, root / "set", load_recipe(), pool=kicad_pool, log=lambda line: None)
+    root, summary = build_from_snapshot(tmp_path_factory.mktemp("four"), [FOUR_LAYERS],
+                                        kicad_pool, "the four-layer board")
     assert summary["tiers"]["d3-a"]["test"] == 1
-    return root / "set"
+    return root
 
 
 def _act(env, kind, **given):

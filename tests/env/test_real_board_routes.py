@@ -11,13 +11,12 @@ from the PCBench snapshot (issue 25), each now routed completely with a clean fi
 """
 from __future__ import annotations
 
-import subprocess
 from pathlib import Path
 
 import pytest
 
 from pcbdata.env.types import MAKE_VIA
-from tests.conftest import SHARED_PCBENCH
+from tests.conftest import build_from_snapshot
 
 VIA_BESIDE_A_PAD = "MySRaspiGW_MySRaspiGW_PA_LNA"
 CROSSING_POWER = "ATtiny461Breakout_ATTiny461DevBoard"
@@ -25,22 +24,12 @@ CROSSING_POWER = "ATtiny461Breakout_ATTiny461DevBoard"
 
 @pytest.fixture(scope="module")
 def real_boards(tmp_path_factory, kicad_pool) -> Path:
-    if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"these boards come from the PCBench snapshot at {SHARED_PCBENCH} "
-                    f"(absent on this machine)")
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
-
-    root = tmp_path_factory.mktemp("real-routes")
-    source = root / "pcbench"
-    source.mkdir()
-    subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(source), "LICENSE",
-                    "github_meta", f"PCBs/{VIA_BESIDE_A_PAD}", f"PCBs/{CROSSING_POWER}"],
-                   check=True)
-    summary = build(source, root / "set", load_recipe(), pool=kicad_pool, log=lambda line: None)
+    root, summary = build_from_snapshot(tmp_path_factory.mktemp("real-routes"),
+                                        [VIA_BESIDE_A_PAD, CROSSING_POWER], kicad_pool,
+                                        "these boards")
     # Tiers come from size quantiles of the boards built, so alone both are D3-A.
     assert summary["tiers"]["d3-a"]["test"] == 2
-    return root / "set"
+    return root
 
 
 def _episode(root: Path, name: str) -> tuple[dict, list[tuple[dict, dict]]]:

@@ -11,12 +11,11 @@ from __future__ import annotations
 
 import gzip
 import json
-import subprocess
 from pathlib import Path
 
 import pytest
 
-from tests.conftest import SHARED_PCBENCH
+from tests.conftest import build_from_snapshot
 
 PINS = Path(__file__).parents[1] / "curation" / "data" / "real_subset_expected.json"
 ID_PREFIX = len("0001_")
@@ -29,19 +28,8 @@ def d3a_names() -> list[str]:
 
 def build_boards(tmp_path_factory, kicad_pool, label: str, names: list[str]):
     """`names` of the PCBench snapshot built alone (the packaged recipe): (set, summary)."""
-    if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"the {label} reference check needs the PCBench snapshot at "
-                    f"{SHARED_PCBENCH} (absent on this machine)")
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
-
-    root = tmp_path_factory.mktemp(label.lower())
-    source = root / "pcbench"
-    source.mkdir()
-    subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(source), "LICENSE",
-                    "github_meta", *(f"PCBs/{name}" for name in names)], check=True)
-    summary = build(source, root / "set", load_recipe(), pool=kicad_pool, log=lambda line: None)
-    return root / "set", summary
+    return build_from_snapshot(tmp_path_factory.mktemp(label.lower()), names, kicad_pool,
+                               f"the boards of the {label} reference check")
 
 
 @pytest.fixture(scope="module")

@@ -95,18 +95,25 @@ def test_a_net_that_cannot_be_joined_again_changes_nothing():
     assert done.removed == () and done.reroutes == ()
 
 
-def test_a_cut_off_net_is_joined_again_through_a_via_when_its_far_end_reaches_another_layer():
-    """As above, but B's top pad is a through-hole pad: B hops to B.Cu through one via placed
-    on its taken-up track's way (here on its own bottom pad) and runs under A's new path."""
-    from pcbdata.router.shove import ViaDrop, ViaRules
+def _cut_off_b(top_layers: tuple[str, ...]):
+    """The board above with B's top pad on `top_layers`, A's request and the via rules."""
+    from pcbdata.router.shove import ViaRules
 
-    tht = pad("B", 10, 3, size=0.6, layers=("F.Cu", "B.Cu"))
-    geometry = board(pad("A", 1, 9), pad("A", 19, 9), pad("B", 10, 9.9, size=0.2), tht,
+    geometry = board(pad("A", 1, 9), pad("A", 19, 9), pad("B", 10, 9.9, size=0.2),
+                     pad("B", 10, 3, size=0.6, layers=top_layers),
                      wall("B", 10, 3, 10, 9.9, 0.25),
                      outline=(((0, 2 * MM), (20 * MM, 2 * MM), (20 * MM, 10.6 * MM),
                                (0, 10.6 * MM)),))
-    req = request("A", (1, 9), (19, 9))
     vias = ViaRules(("F.Cu", "B.Cu"), lambda net: (400_000, 200_000))
+    return geometry, request("A", (1, 9), (19, 9)), vias
+
+
+def test_a_cut_off_net_is_joined_again_through_a_via_when_its_far_end_reaches_another_layer():
+    """As above, but B's top pad is a through-hole pad: B hops to B.Cu through one via placed
+    on its taken-up track's way (here on its own bottom pad) and runs under A's new path."""
+    from pcbdata.router.shove import ViaDrop
+
+    geometry, req, vias = _cut_off_b(top_layers=("F.Cu", "B.Cu"))
     done = plan(WalkaroundRouter(geometry), req, vias=vias)
     assert done.path is not None, done.reason
     assert done.vias == (ViaDrop("B", (10 * MM, 9_900_000), 400_000, 200_000),)
@@ -127,14 +134,7 @@ def test_a_cut_off_net_is_joined_again_through_a_via_when_its_far_end_reaches_an
 def test_a_cut_off_net_with_both_ends_on_one_layer_is_joined_again_under_the_new_path():
     """Both of B's pads are surface pads on F.Cu: B goes down through a via near one end, runs
     on B.Cu under A's new path and comes up through a via near the other end."""
-    from pcbdata.router.shove import ViaRules
-
-    geometry = board(pad("A", 1, 9), pad("A", 19, 9), pad("B", 10, 9.9, size=0.2),
-                     pad("B", 10, 3, size=0.6), wall("B", 10, 3, 10, 9.9, 0.25),
-                     outline=(((0, 2 * MM), (20 * MM, 2 * MM), (20 * MM, 10.6 * MM),
-                               (0, 10.6 * MM)),))
-    req = request("A", (1, 9), (19, 9))
-    vias = ViaRules(("F.Cu", "B.Cu"), lambda net: (400_000, 200_000))
+    geometry, req, vias = _cut_off_b(top_layers=("F.Cu",))
     done = plan(WalkaroundRouter(geometry), req, vias=vias)
     assert done.path is not None, done.reason
     assert len(done.vias) == 2 and done.stats["rejoin_vias"] == 2
