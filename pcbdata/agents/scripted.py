@@ -47,6 +47,12 @@ def open_edges(obs) -> np.ndarray:
     return geo["ratsnest"][: int(geo["ratsnest_count"])]
 
 
+def _pads_at(obs, key: tuple) -> np.ndarray:
+    """The rows of `board_static.pads` centred at the head key's (x, y)."""
+    pads = obs["board_static"]["pads"]
+    return pads[(pads[:, 0] == 1) & (pads[:, 2] == key[0]) & (pads[:, 3] == key[1])]
+
+
 def _net_order(obs, seed: int) -> list[int]:
     """Net indices by the half-perimeter of their pads' bounding box, small first."""
     static = obs["board_static"]
@@ -208,10 +214,8 @@ class ScriptedAgent:
     def _via_here(self, obs, info, key: tuple) -> int | None:
         """The candidate at the head for a via, unless the head sits on a drilled pad or a via
         was already dropped here."""
-        static = obs["board_static"]["pads"]
-        drilled = (static[:, 0] == 1) & (static[:, 2] == key[0]) & (static[:, 3] == key[1]) \
-            & (static[:, 7] > 0)
-        if drilled.any() or key[:2] in self._vias or not info["action_mask"]["type"][MAKE_VIA]:
+        drilled = (_pads_at(obs, key)[:, 7] > 0).any()
+        if drilled or key[:2] in self._vias or not info["action_mask"]["type"][MAKE_VIA]:
             return None
         for i, c in enumerate(obs["router_head"]["candidates"]):
             if info["action_mask"]["candidate_via"][i] and (c[1], c[2], int(c[3])) == key:
@@ -234,9 +238,8 @@ class ScriptedAgent:
 
     @staticmethod
     def _on_surface_pad(obs, key: tuple) -> bool:
-        static = obs["board_static"]["pads"]
-        here = (static[:, 0] == 1) & (static[:, 2] == key[0]) & (static[:, 3] == key[1])
-        return bool(here.any() and not (static[here, 7] > 0).any())
+        here = _pads_at(obs, key)
+        return bool(len(here) and not (here[:, 7] > 0).any())
 
     @staticmethod
     def _nearest_open_end(obs, key: tuple) -> tuple[float, float] | None:

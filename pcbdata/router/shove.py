@@ -31,7 +31,7 @@ import numpy as np
 import shapely
 
 from pcbdata.router.geometry import BoardGeometry, CopperItem, Point, copper_core
-from pcbdata.router.walkaround import TOLERANCE, RouteRequest, WalkaroundRouter
+from pcbdata.router.walkaround import HEADINGS, TOLERANCE, RouteRequest, WalkaroundRouter
 
 
 @dataclass(frozen=True)
@@ -250,10 +250,11 @@ class _Join:
                 for at_b in spots[b]:
                     if _distance(at_a, at_b) < apart:
                         continue
-                    legs = self._under(board, (a, at_a, at_b, b), other, diameter, vias.layers)
-                    if legs is not None:
+                    found = self._under(board, (a, at_a, at_b, b), other, diameter,
+                                        vias.layers)
+                    if found is not None:
                         drops = [ViaDrop(self.net, at, diameter, drill) for at in (at_a, at_b)]
-                        return legs[0], drops, legs[1]
+                        return found[0], drops, found[1]
         return None
 
     def _under(self, board, points, other, diameter, layers):
@@ -311,15 +312,11 @@ def _via_spots(group: list[CopperItem], near: Point) -> list[Point]:
 
 
 def _spots_around(spots: list[Point], near: Point) -> list[Point]:
-    """The spots and points beside them (UNDER_OFFSETS in the eight directions), nearest `near`
-    first: a taken-up track often runs where no via fits, beside pads."""
-    out = set(spots)
-    for x, y in spots:
-        for radius in UNDER_OFFSETS:
-            diagonal = round(radius / np.sqrt(2))
-            for dx, dy in ((1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1)):
-                step = radius if dx == 0 or dy == 0 else diagonal
-                out.add((x + dx * step, y + dy * step))
+    """The spots and points beside them (UNDER_OFFSETS along the eight headings), nearest
+    `near` first: a taken-up track often runs where no via fits, beside pads."""
+    steps = np.rint(HEADINGS[None] * np.array(UNDER_OFFSETS)[:, None, None]).reshape(-1, 2)
+    beside = (np.array(spots)[:, None, :] + steps[None]).reshape(-1, 2).astype(np.int64)
+    out = set(spots) | {(int(x), int(y)) for x, y in beside}
     return sorted(out, key=lambda p: ((p[0] - near[0]) ** 2 + (p[1] - near[1]) ** 2, p))
 
 

@@ -78,7 +78,7 @@ BUDGET_CHECKS = 400_000
 _DENSE_PAIRS = 20_000
 # Unit vectors of the eight octilinear headings (index k: k * 45 degrees) and the index of a
 # heading given as a pair of signs, at [sx + 1, sy + 1].
-_HEADINGS = _NORMALS
+HEADINGS = _NORMALS
 _HEADING_INDEX = np.array([[5, 4, 3], [6, -1, 2], [7, 0, 1]])
 # Keep-outs for the ray screen (see `_Rules.free`): the allowed distance less this much (nm),
 # drawn as inscribed polygons, so whatever they touch violates the clearance beyond float doubt.
@@ -206,7 +206,7 @@ class _Rules:
         self.layer_name = ""  # the layer these rules are for (`WalkaroundRouter._seed_rays`)
 
     def free(self, points: np.ndarray, headings: np.ndarray, length: float) -> np.ndarray:
-        """How far a track may run from each point along its heading (index into `_HEADINGS`)
+        """How far a track may run from each point along its heading (index into `HEADINGS`)
         at most: beyond it the track certainly violates clearance; up to it, it may or may not.
 
         The bound is where the ray enters a keep-out drawn inside the true one (see
@@ -219,7 +219,7 @@ class _Rules:
         # Short rays first: most meet a keep-out soon, and a short ray meets few.
         todo, reach = np.arange(len(points)), min(length, 4 * self.max_need)
         while len(todo):
-            ends = points[todo] + _HEADINGS[headings[todo]] * reach
+            ends = points[todo] + HEADINGS[headings[todo]] * reach
             rays = shapely.linestrings(np.stack([points[todo], ends], axis=1))
             ray, item = tree.query(rays, predicate="intersects")
             if len(ray):
@@ -411,8 +411,8 @@ class WalkaroundRouter:
         over = np.zeros(len(at), dtype=bool)
         dots = shapely.points(at)
         for item in drilled:
-            core, radius = copper_core(item)
-            over |= shapely.distance(core, dots) < radius + diameter / 2
+            shape = self._cache[item]
+            over |= shapely.distance(shape.core, dots) < shape.radius + diameter / 2
         return over
 
     # --- routing ---
