@@ -217,17 +217,17 @@ class _Join:
         return path_items(self.net, layer, path, self.width, self.clearance)
 
     def through_via(self, board: BoardGeometry, group, a: Point, b: Point, vias: ViaRules):
-        """(legs, via, board with them) joining a and b with one layer hop, or None. The via
+        """(legs, [via], board with them) joining a and b with one layer hop, or None. The via
         sits on the taken-up tracks' way, nearest the end that stays on this layer; the far
         end must reach the other layer."""
         diameter, drill = vias.via_of(self.net)
         here = self.router.with_board(board)
         for near, far in ((a, b), (b, a)):
-            for other in [la for la in vias.layers
-                          if la != self.layer and _reaches(board, self.net, far, la)]:
-                fitting = [at for at in _via_spots(group, near) if here.via_fits(
-                    self.net, at, diameter, self.clearance, vias.layers)]
-                for at in fitting[:VIA_TRIES]:
+            others = [la for la in vias.layers
+                      if la != self.layer and _reaches(board, self.net, far, la)]
+            fitting = self._fitting(here, _via_spots(group, near), vias) if others else []
+            for other in others:
+                for at in fitting:
                     hop = self._hop(board, near, far, at, other, diameter, vias.layers)
                     if hop is not None:
                         legs, board_after = hop
@@ -239,11 +239,8 @@ class _Join:
         via on the taken-up tracks' way near each end, or None."""
         diameter, drill = vias.via_of(self.net)
         here = self.router.with_board(board)
-        spots = {}
-        for end in (a, b):
-            around = _spots_around(_via_spots(group, end), end)
-            fits = here.vias_fit(self.net, around, diameter, self.clearance, vias.layers)
-            spots[end] = [at for at, ok in zip(around, fits) if ok][:VIA_TRIES]
+        spots = {end: self._fitting(here, _spots_around(_via_spots(group, end), end), vias)
+                 for end in (a, b)}
         apart = diameter + self.clearance  # two holes of one net need room between them too
         for other in [layer for layer in vias.layers if layer != self.layer]:
             for at_a in spots[a]:
@@ -256,6 +253,13 @@ class _Join:
                         drops = [ViaDrop(self.net, at, diameter, drill) for at in (at_a, at_b)]
                         return found[0], drops, found[1]
         return None
+
+    def _fitting(self, here: WalkaroundRouter, spots: list[Point],
+                 vias: ViaRules) -> list[Point]:
+        """The first VIA_TRIES of `spots` where the net's via fits on `here`'s board."""
+        fits = here.vias_fit(self.net, spots, vias.via_of(self.net)[0], self.clearance,
+                             vias.layers)
+        return [at for at, ok in zip(spots, fits) if ok][:VIA_TRIES]
 
     def _under(self, board, points, other, diameter, layers):
         """Legs a -> via (this layer), via -> via (`other`), via -> b (this layer)."""
