@@ -80,8 +80,8 @@ def build_from_snapshot(root: Path, names: list[str], kicad_pool, why: str) -> t
     """The D3 set built (packaged recipe) from only these PCBench folders, unpacked under
     `root`: (set folder, build summary). Skips, saying `why`, without the snapshot."""
     if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"{why} come from the PCBench snapshot at {SHARED_PCBENCH} (absent on this "
-                    f"machine)")
+        pytest.skip(f"{why}: built from the PCBench snapshot at {SHARED_PCBENCH}, absent on "
+                    f"this machine")
     from pcbdata.curation.build import build
     from pcbdata.spec.recipe import load_recipe
 
