@@ -324,14 +324,14 @@ class KicadPool:
         try:
             for _ in range(count):
                 yield done.get()
-        finally:  # a caller that stops early: queued tasks are dropped, not started
-            while not todo.empty():
+        finally:  # a caller that stops early: queued tasks are dropped, not started, and the
+            while not todo.empty():  # running ones end before a next call uses their workers
                 try:
                     todo.get_nowait()
                 except queue.Empty:
                     break
-        for thread in threads:
-            thread.join()
+            for thread in threads:
+                thread.join()
 
     def call(self, ref: str, *args) -> Any:
         """Runs one task and returns its value; raises `KicadError` on failure."""

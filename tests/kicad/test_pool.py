@@ -147,3 +147,13 @@ def test_a_busy_worker_dies_with_its_parent(tmp_path, sig):
     finally:
         parent.kill()
         parent.wait()
+
+
+def test_a_caller_that_stops_early_never_gets_its_answers_in_the_next_call():
+    # The first map's other task was still running in its worker when the caller moved on;
+    # the next map sent that worker a task and read the earlier task's answer as its own.
+    with KicadPool(workers=2, task_timeout=30) as pool:
+        slow = [(f"sleep {0.2 * n}; echo {n}",) for n in range(1, 5)]
+        for _ in pool.map("subprocess:getoutput", slow):
+            break
+        assert sorted(o.value for o in pool.map("math:sqrt", [(16,), (25,)])) == [4.0, 5.0]
