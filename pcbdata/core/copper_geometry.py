@@ -111,3 +111,42 @@ def items_outside(items: list[dict], board, tolerance: float) -> list[int]:
         if not inside.covers(geometry):
             out.append(index)
     return out
+
+
+def stub_cut(track: tuple[Point, Point], copper: dict) -> tuple[Point, tuple[int, int]] | None:
+    """Where to shorten a track (start, end) one end of which touches nothing while its body
+    crosses other copper of its net on its layer (`copper`: "segments" (a, b, radius),
+    "circles" (centre, radius), "polygons" (rings), nm): (the end to keep, the new free end),
+    the middle of the body's contact nearest the free end. None when both or neither end
+    touch, or when the only contact is at the kept end (the track is a stub to delete whole)."""
+    from shapely.geometry import LineString
+    from shapely.geometry import Point as ShapelyPoint
+
+    shape = _copper_shape(copper)
+    touching = [shape.intersects(ShapelyPoint(_float(end))) for end in track]
+    if touching.count(True) != 1:
+        return None
+    kept, free = (track[0], track[1]) if touching[0] else (track[1], track[0])
+    line = LineString([_float(free), _float(kept)])
+    contact = line.intersection(shape)
+    pieces = getattr(contact, "geoms", [contact])
+    spans = sorted((min(d), max(d)) for d in
+                   ([line.project(ShapelyPoint(c)) for c in p.coords] for p in pieces
+                    if not p.is_empty))
+    if not spans or spans[0][1] >= line.length - 1.0:
+        return None
+    middle = line.interpolate(sum(spans[0]) / 2)
+    return kept, (round(middle.x), round(middle.y))
+
+
+def _copper_shape(copper: dict):
+    from shapely.geometry import LineString, Polygon
+    from shapely.geometry import Point as ShapelyPoint
+    from shapely.ops import unary_union
+
+    shapes = [(LineString([_float(a), _float(b)]) if tuple(a) != tuple(b)
+               else ShapelyPoint(_float(a))).buffer(radius)
+              for a, b, radius in copper.get("segments", [])]
+    shapes += [ShapelyPoint(_float(c)).buffer(radius) for c, radius in copper.get("circles", [])]
+    shapes += [Polygon(ring) for ring in copper.get("polygons", []) if len(ring) >= 3]
+    return unary_union(shapes)

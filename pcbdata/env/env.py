@@ -476,6 +476,12 @@ class RoutingEnv(gym.Env):
         return draw_board(records, RENDER_SIZE)
 
     @property
+    def violations(self) -> list[dict] | None:
+        """KiCad's DRC violations of the board as it stands, every type (canonical order);
+        None while the last DRC is older than the board (drc="terminal" mid-episode)."""
+        return [dict(v) for v in self._violations] if self._drc_fresh else None
+
+    @property
     def board_id(self) -> str | None:
         return self.static.board_id if self.static else None
 

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from pcbdata.core.fsutil import owned_temp_folder
 from pcbdata.env.errors import EngineFailure
+from pcbdata.evaluator.metrics import STRICT_WARNINGS
 from pcbdata.kicad import fastwait
 from pcbdata.kicad.pool import KicadPool
 
@@ -15,8 +16,10 @@ SESSION = "pcbdata.kicad.routing_session"
 
 
 class KicadSession:
-    #: A fresh worker after this many instances: KiCad keeps about 0.4 MB per loaded board.
+    #: A fresh worker after this many instances, or once it holds this much memory: KiCad
+    #: keeps about 0.4-1 MB per board it has loaded (two per instance), more on large boards.
     RECYCLE_EVERY = 200
+    RECYCLE_MIB = 1536
 
     def __init__(self, task_timeout: float, env: dict | None = None, fast_drc: bool = True):
         self._task_timeout, self._env = task_timeout, self.worker_env(env, fast_drc)
@@ -53,12 +56,14 @@ class KicadSession:
         worker is forgotten: the pool starts a fresh worker when the old one died."""
         self.alive = False
         self._opened += 1
-        if self._opened % self.RECYCLE_EVERY == 0:
+        if self._opened % self.RECYCLE_EVERY == 0 or \
+                self._pool.resident_mib() > self.RECYCLE_MIB:
             self._pool.close()
             self._pool = self._new_pool()
             self._finalizer.detach()
             self._finalizer = weakref.finalize(self, _release, self._pool, str(self.work))
-        value = self._call("open_instance", board, project, rules, str(self.work / "stage"))
+        value = self._call("open_instance", board, project, rules, str(self.work / "stage"),
+                           sorted(STRICT_WARNINGS))
         self.alive = True
         return value
 

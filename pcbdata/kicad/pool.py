@@ -286,6 +286,11 @@ class KicadPool:
             slot.stop()
         self._cleanup()
 
+    def resident_mib(self) -> int:
+        """The resident memory of the largest running worker, in MiB (0: none is running)."""
+        return max((_resident_mib(slot.proc.pid) for slot in self._slots
+                    if slot.proc is not None and slot.proc.poll() is None), default=0)
+
     def map(self, ref: str, arg_tuples: Iterable[tuple]) -> Iterator[Outcome]:
         todo: queue.Queue = queue.Queue()
         count = 0

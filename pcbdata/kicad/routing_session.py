@@ -14,6 +14,7 @@ from __future__ import annotations
 import os
 import shutil
 
+from pcbdata.core.copper_geometry import stub_cut
 from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE, RULES_FILE
 from pcbdata.kicad.basics import pcbnew_module as _pcbnew
 from pcbdata.kicad.board_reading import (
@@ -22,10 +23,12 @@ from pcbdata.kicad.board_reading import (
     net_rules,
     outline_rings,
     pad_record,
+    polygon_rings,
     track_record,
     zone_records,
 )
 from pcbdata.kicad.scoring import clusters_per_net, copper_labels, copper_totals
+from pcbdata.kicad.step_drc import is_uncounted_warning, static_violations, step_project_text
 
 #: The one board of this worker: {"board", "layers": {name: id}, "pads": [PAD], "path"}.
 _STATE: dict = {}
@@ -44,39 +47,76 @@ def _board():
     return _STATE["board"]
 
 
-def _stage(board: str, project: str, rules: str | None, stage_dir: str) -> str:
+def _stage(board: str, project: str, rules: str | None, stage_dir: str,
+           project_text: str | None = None) -> str:
     """Copies the instance's files under one stem into a new folder of the environment's
-    private folder: KiCad loads the rules that share the board's stem and writes lock files
-    beside it. The folder is new for every instance because KiCad keeps a project it has loaded
-    by its path: a second board staged at the same path would get the first board's rules."""
+    private folder (with `project_text` as the project, when given): KiCad loads the rules
+    that share the board's stem and writes lock files beside it. The folder is new for every
+    staging because KiCad keeps a project it has loaded by its path: a second board staged at
+    the same path would get the first board's rules."""
     os.makedirs(stage_dir, exist_ok=True)
-    for name in os.listdir(stage_dir):
-        shutil.rmtree(os.path.join(stage_dir, name), ignore_errors=True)
     _STAGED[0] += 1
     folder = os.path.join(stage_dir, str(_STAGED[0]))
     os.makedirs(folder)
     staged = os.path.join(folder, BOARD_FILE)
     shutil.copyfile(board, staged)
-    shutil.copyfile(project, os.path.join(folder, PROJECT_FILE))
+    if project_text is None:
+        shutil.copyfile(project, os.path.join(folder, PROJECT_FILE))
+    else:
+        with open(os.path.join(folder, PROJECT_FILE), "w", encoding="utf-8") as handle:
+            handle.write(project_text)
     if rules:
         shutil.copyfile(rules, os.path.join(folder, RULES_FILE))
     return staged
 
 
-def open_instance(board: str, project: str, rules: str | None, stage_dir: str) -> dict:
-    """Loads an instance (replacing any board this worker held); returns its static data and
-    the first snapshot (with DRC)."""
-    pcbnew = _pcbnew()
-    _STATE.clear()
-    pcbnew.BOARD()  # a process's first BOARD draws one UUID (a static item): not after the seed
-    pcbnew.KIID.SeedGenerator(UUID_SEED)
-    loaded = pcbnew.LoadBoard(_stage(board, project, rules, stage_dir))
+def _clear(stage_dir: str) -> None:
+    """Removes the previous instance's staged folders."""
+    if os.path.isdir(stage_dir):
+        for name in os.listdir(stage_dir):
+            shutil.rmtree(os.path.join(stage_dir, name), ignore_errors=True)
+
+
+def _load(staged: str, board: str):
+    loaded = _pcbnew().LoadBoard(staged)
     if loaded is None:
         raise ValueError(f"{board}: KiCad could not load the board")
     loaded.BuildConnectivity()
+    return loaded
+
+
+def _read(path: str) -> str:
+    with open(path, encoding="utf-8", errors="replace") as handle:
+        return handle.read()
+
+
+def open_instance(board: str, project: str, rules: str | None, stage_dir: str,
+                  counted_warnings: list[str]) -> dict:
+    """Loads an instance (replacing any board this worker held); returns its static data and
+    the first snapshot (with DRC). The DRC leaves out the warnings whose types are not in
+    `counted_warnings`.
+
+    The board the steps edit is loaded under a copy of the project that ignores the static
+    checks and those warnings (`pcbdata.kicad.step_drc`); the static checks' violations come
+    from a whole DRC of the instance loaded under its own project, which is then dropped."""
+    pcbnew = _pcbnew()
+    _STATE.clear()
+    _clear(stage_dir)
+    pcbnew.BOARD()  # a process's first BOARD draws one UUID (a static item): not after the seed
+    counted = frozenset(counted_warnings)
+    step_text = step_project_text(_read(project), counted, _read(rules) if rules else None)
+    whole_drc = None
+    if step_text is not None:
+        whole_drc = located_violations(_load(_stage(board, project, rules, stage_dir), board))
+    pcbnew.KIID.SeedGenerator(UUID_SEED)
+    loaded = _load(_stage(board, project, rules, stage_dir, step_text), board)
     layers = {loaded.GetLayerName(i): int(i) for i in loaded.GetEnabledLayers().CuStack()}
-    _STATE.update(board=loaded, layers=layers, pads=list(loaded.GetPads()), applies=1)
-    return {"static": _static(loaded), "snapshot": snapshot(True)}
+    _STATE.update(board=loaded, layers=layers, pads=list(loaded.GetPads()), applies=1,
+                  counted_warnings=counted, static_violations=static_violations(whole_drc or []))
+    first = snapshot(whole_drc is None)
+    if whole_drc is not None:
+        first["violations"] = _counted_ones(whole_drc)
+    return {"static": _static(loaded), "snapshot": first}
 
 
 def _static(board) -> dict:
@@ -107,7 +147,18 @@ def snapshot(drc: bool = False) -> dict:
             "wl_mm": wl_mm,
             "vias": vias, "net_count": int(board.GetNetCount()),
             "unconnected": int(board.GetConnectivity().GetUnconnectedCount(False)),
-            "violations": located_violations(board) if drc else None}
+            "violations": _violations(board) if drc else None}
+
+
+def _violations(board) -> list[dict]:
+    """KiCad's DRC of the edited board: its step DRC plus the instance's static violations,
+    without the warnings no counting counts."""
+    return _counted_ones(located_violations(board) + _STATE["static_violations"])
+
+
+def _counted_ones(violations: list[dict]) -> list[dict]:
+    counted = _STATE["counted_warnings"]
+    return [v for v in violations if not is_uncounted_warning(v, counted)]
 
 
 def _add_track(board, net, layer: int, points: list, width: int) -> None:
@@ -210,12 +261,14 @@ def _removal(item, names: dict[int, str]) -> dict:
 def prune(nets: list[str], drc: bool = False) -> dict:
     """Deletes the tracks and vias of `nets` that KiCad's connectivity finds dangling (an end
     or a via joined to nothing), again until none is left: the stubs and lone vias a route
-    that went nowhere leaves. Returns {"edits": the removals, in order, "snapshot":
-    `snapshot(drc)`, or None when nothing was removed}."""
+    that went nowhere leaves. A dangling track whose body still crosses copper of its net (a
+    reroute's crossing) is shortened to that crossing instead, once. Returns {"edits": the
+    removals and shortened tracks, in order, "snapshot": `snapshot(drc)`, or None when nothing
+    changed}."""
     board = _board()
     pcbnew = _pcbnew()
     names = {lid: name for name, lid in _STATE["layers"].items()}
-    wanted, edits = set(nets), []
+    wanted, edits, shortened = set(nets), [], set()
     kinds = (pcbnew.PCB_TRACE_T, pcbnew.PCB_VIA_T)
     while True:
         connectivity = board.GetConnectivity()
@@ -225,10 +278,52 @@ def prune(nets: list[str], drc: bool = False) -> dict:
         if not gone:
             break
         for item in gone:
+            cut = None
+            if item.Type() == pcbnew.PCB_TRACE_T and _ends(item) not in shortened:
+                cut = stub_cut(_ends(item), _net_copper(board, item))
             edits.append(_removal(item, names))
             board.Delete(item)
+            if cut is not None:
+                edits.append(_shorten(board, edits[-1], cut))
+                shortened.add((tuple(cut[0]), tuple(cut[1])))
         board.BuildConnectivity()
     return {"edits": edits, "snapshot": snapshot(drc) if edits else None}
+
+
+def _ends(track) -> tuple[tuple[int, int], tuple[int, int]]:
+    return _xy(track.GetStart()), _xy(track.GetEnd())
+
+
+def _shorten(board, removal: dict, cut: tuple) -> dict:
+    """Adds the kept part of a removed track (`removal`); returns its edit."""
+    pcbnew = _pcbnew()
+    pcbnew.KIID.SeedGenerator(UUID_SEED + _STATE["applies"])  # a new item: seeded, as `apply`
+    _STATE["applies"] += 1
+    edit = {"kind": "track", "net": removal["net"], "layer": removal["layer"],
+            "points": [cut[0], cut[1]], "width": removal["width"]}
+    _add_track(board, board.GetNetsByName()[edit["net"]], _STATE["layers"][edit["layer"]],
+               edit["points"], edit["width"])
+    return edit
+
+
+def _net_copper(board, track) -> dict:
+    """The copper of a track's net on its layer, without the track, as
+    `copper_geometry.stub_cut` takes it: tracks, vias, pads (nm)."""
+    pcbnew = _pcbnew()
+    layer, net, own = track.GetLayer(), track.GetNetCode(), track.m_Uuid.AsString()
+    copper: dict = {"segments": [], "circles": [], "polygons": []}
+    for item in board.GetTracks():
+        if item.GetNetCode() != net or item.m_Uuid.AsString() == own:
+            continue
+        if item.Type() == pcbnew.PCB_VIA_T:
+            copper["circles"].append((_xy(item.GetPosition()), item.GetWidth(layer) / 2))
+        elif item.Type() == pcbnew.PCB_TRACE_T and item.GetLayer() == layer:
+            copper["segments"].append((*_ends(item), item.GetWidth() / 2))
+    for pad in _STATE["pads"]:
+        if pad.GetNetCode() == net and pad.IsOnLayer(layer):
+            copper["polygons"] += polygon_rings(pad.GetEffectivePolygon(layer,
+                                                                        pcbnew.ERROR_INSIDE))
+    return copper
 
 
 def save(path: str) -> str:

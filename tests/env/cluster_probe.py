@@ -6,11 +6,13 @@ import tempfile
 
 
 def env_and_evaluator_clusters(board: str, project: str, rules: str | None) -> dict:
+    from pcbdata.evaluator.metrics import STRICT_WARNINGS
     from pcbdata.kicad import routing_session
     from pcbdata.kicad.scoring import pad_clusters
 
     with tempfile.TemporaryDirectory() as stage:
-        opened = routing_session.open_instance(board, project, rules, stage)
+        opened = routing_session.open_instance(board, project, rules, stage,
+                                                sorted(STRICT_WARNINGS))
         snap = opened["snapshot"]
         nets = [pad["net"] for pad in opened["static"]["pads"]]
         labels: dict[str, set[int]] = {}

@@ -21,3 +21,16 @@ def test_the_same_episode_saves_the_same_bytes_in_any_worker(make_env, tmp_path)
     fresh = _episode(make_env("d2", max_steps=30), "board_00000", tmp_path / "d.kicad_pcb")
     assert b"(segment" in first
     assert first == again == fresh
+
+
+def test_a_worker_that_holds_too_much_memory_is_replaced_without_changing_episodes(
+        make_env, tmp_path, monkeypatch):
+    from pcbdata.env.session import KicadSession
+
+    env = make_env("d2", max_steps=30)
+    first = _episode(env, "board_00000", tmp_path / "a.kicad_pcb")
+    worker = env.unwrapped._session._pool.call("os:getpid")
+    monkeypatch.setattr(KicadSession, "RECYCLE_MIB", 1)  # every worker holds more than 1 MiB
+    again = _episode(env, "board_00000", tmp_path / "b.kicad_pcb")
+    assert env.unwrapped._session._pool.call("os:getpid") != worker
+    assert first == again

@@ -157,3 +157,11 @@ def test_a_caller_that_stops_early_never_gets_its_answers_in_the_next_call():
         for _ in pool.map("subprocess:getoutput", slow):
             break
         assert sorted(o.value for o in pool.map("math:sqrt", [(16,), (25,)])) == [4.0, 5.0]
+
+
+def test_resident_memory_of_the_running_workers():
+    with KicadPool(workers=1, task_timeout=30) as pool:
+        assert pool.resident_mib() == 0  # workers start with their first task
+        pool.call("os:getpid")
+        assert pool.resident_mib() > 1
+    assert pool.resident_mib() == 0
