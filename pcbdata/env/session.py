@@ -17,7 +17,7 @@ SESSION = "pcbdata.kicad.routing_session"
 
 class KicadSession:
     #: A fresh worker after this many instances, or once it holds this much memory: KiCad
-    #: keeps about 0.4-1 MB per board it has loaded (two per instance), more on large boards.
+    #: keeps about 0.4-1 MB per board it has loaded, much more on large boards.
     RECYCLE_EVERY = 200
     RECYCLE_MIB = 1536
 

@@ -47,24 +47,18 @@ def _board():
     return _STATE["board"]
 
 
-def _stage(board: str, project: str, rules: str | None, stage_dir: str,
-           project_text: str | None = None) -> str:
+def _stage(board: str, project: str, rules: str | None, stage_dir: str) -> str:
     """Copies the instance's files under one stem into a new folder of the environment's
-    private folder (with `project_text` as the project, when given): KiCad loads the rules
-    that share the board's stem and writes lock files beside it. The folder is new for every
-    staging because KiCad keeps a project it has loaded by its path: a second board staged at
-    the same path would get the first board's rules."""
+    private folder: KiCad loads the rules that share the board's stem and writes lock files
+    beside it. The folder is new for every staging because KiCad keeps a project it has loaded
+    by its path: a second board staged at the same path would get the first board's rules."""
     os.makedirs(stage_dir, exist_ok=True)
     _STAGED[0] += 1
     folder = os.path.join(stage_dir, str(_STAGED[0]))
     os.makedirs(folder)
     staged = os.path.join(folder, BOARD_FILE)
     shutil.copyfile(board, staged)
-    if project_text is None:
-        shutil.copyfile(project, os.path.join(folder, PROJECT_FILE))
-    else:
-        with open(os.path.join(folder, PROJECT_FILE), "w", encoding="utf-8") as handle:
-            handle.write(project_text)
+    shutil.copyfile(project, os.path.join(folder, PROJECT_FILE))
     if rules:
         shutil.copyfile(rules, os.path.join(folder, RULES_FILE))
     return staged
@@ -93,30 +87,45 @@ def _read(path: str) -> str:
 def open_instance(board: str, project: str, rules: str | None, stage_dir: str,
                   counted_warnings: list[str]) -> dict:
     """Loads an instance (replacing any board this worker held); returns its static data and
-    the first snapshot (with DRC). The DRC leaves out the warnings whose types are not in
-    `counted_warnings`.
+    the first snapshot (with a whole DRC). The DRC leaves out the warnings whose types are not
+    in `counted_warnings`.
 
-    The board the steps edit is loaded under a copy of the project that ignores the static
-    checks and those warnings (`pcbdata.kicad.step_drc`); the static checks' violations come
-    from a whole DRC of the instance loaded under its own project, which is then dropped."""
+    After that first DRC the board is put under a copy of the project that ignores the static
+    checks and those warnings (`pcbdata.kicad.step_drc`); the static checks' violations of the
+    first DRC are added to every later one."""
     pcbnew = _pcbnew()
     _STATE.clear()
     _clear(stage_dir)
     pcbnew.BOARD()  # a process's first BOARD draws one UUID (a static item): not after the seed
-    counted = frozenset(counted_warnings)
-    step_text = step_project_text(_read(project), counted, _read(rules) if rules else None)
-    whole_drc = None
-    if step_text is not None:
-        whole_drc = located_violations(_load(_stage(board, project, rules, stage_dir), board))
     pcbnew.KIID.SeedGenerator(UUID_SEED)
-    loaded = _load(_stage(board, project, rules, stage_dir, step_text), board)
+    loaded = _load(_stage(board, project, rules, stage_dir), board)
     layers = {loaded.GetLayerName(i): int(i) for i in loaded.GetEnabledLayers().CuStack()}
     _STATE.update(board=loaded, layers=layers, pads=list(loaded.GetPads()), applies=1,
-                  counted_warnings=counted, static_violations=static_violations(whole_drc or []))
-    first = snapshot(whole_drc is None)
-    if whole_drc is not None:
-        first["violations"] = _counted_ones(whole_drc)
+                  counted_warnings=frozenset(counted_warnings), static_violations=[])
+    first = snapshot(True)
+    step_text = step_project_text(_read(project), _STATE["counted_warnings"],
+                                  _read(rules) if rules else None)
+    if step_text is not None:
+        _STATE["static_violations"] = static_violations(first["violations"])
+        _use_project(loaded, step_text, stage_dir)
     return {"static": _static(loaded), "snapshot": first}
+
+
+def _use_project(board, project_text: str, stage_dir: str) -> None:
+    """Puts the board under another project (as `LoadBoard` puts a board under its own): the
+    design settings, severities included, are read from it; the rules stay the board's."""
+    pcbnew = _pcbnew()
+    _STAGED[0] += 1
+    folder = os.path.join(stage_dir, str(_STAGED[0]))
+    os.makedirs(folder)
+    path = os.path.join(folder, PROJECT_FILE)
+    with open(path, "w", encoding="utf-8") as handle:
+        handle.write(project_text)
+    settings = pcbnew.GetSettingsManager()
+    if not settings.LoadProject(path, False):
+        raise RuntimeError(f"{path}: KiCad could not load the step project")
+    board.SetProject(settings.GetProject(path))
+    board.SynchronizeNetsAndNetClasses(False)
 
 
 def _static(board) -> dict:

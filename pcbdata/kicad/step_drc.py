@@ -12,10 +12,10 @@ run on a real board checks what cannot matter there:
   altogether, so the reward, observation and info are unchanged.
 
 Both are set to "ignore" in a copy of the instance's project (the only place KiCad 9 reads
-severities from) under which the edited board is loaded. The environment's violations then
-equal a whole DRC of the board without the uncounted warnings, up to the items KiCad names for
-an unconnected edge, which vary from run to run anyway (tests/env/test_step_drc.py compares
-the two after every step of real episodes).
+severities from), which the board is put under after its first, whole DRC. The environment's
+violations then equal a whole DRC of the board without the uncounted warnings, up to the items
+KiCad names for an unconnected edge, which vary from run to run anyway
+(tests/env/test_step_drc.py compares the two after every step of real episodes).
 """
 from __future__ import annotations
 
