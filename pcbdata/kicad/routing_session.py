@@ -52,16 +52,21 @@ def _stage(board: str, project: str, rules: str | None, stage_dir: str) -> str:
     private folder: KiCad loads the rules that share the board's stem and writes lock files
     beside it. The folder is new for every staging because KiCad keeps a project it has loaded
     by its path: a second board staged at the same path would get the first board's rules."""
-    os.makedirs(stage_dir, exist_ok=True)
-    _STAGED[0] += 1
-    folder = os.path.join(stage_dir, str(_STAGED[0]))
-    os.makedirs(folder)
+    folder = _new_folder(stage_dir)
     staged = os.path.join(folder, BOARD_FILE)
     shutil.copyfile(board, staged)
     shutil.copyfile(project, os.path.join(folder, PROJECT_FILE))
     if rules:
         shutil.copyfile(rules, os.path.join(folder, RULES_FILE))
     return staged
+
+
+def _new_folder(stage_dir: str) -> str:
+    os.makedirs(stage_dir, exist_ok=True)
+    _STAGED[0] += 1
+    folder = os.path.join(stage_dir, str(_STAGED[0]))
+    os.makedirs(folder)
+    return folder
 
 
 def _clear(stage_dir: str) -> None:
@@ -115,10 +120,7 @@ def _use_project(board, project_text: str, stage_dir: str) -> None:
     """Puts the board under another project (as `LoadBoard` puts a board under its own): the
     design settings, severities included, are read from it; the rules stay the board's."""
     pcbnew = _pcbnew()
-    _STAGED[0] += 1
-    folder = os.path.join(stage_dir, str(_STAGED[0]))
-    os.makedirs(folder)
-    path = os.path.join(folder, PROJECT_FILE)
+    path = os.path.join(_new_folder(stage_dir), PROJECT_FILE)
     with open(path, "w", encoding="utf-8") as handle:
         handle.write(project_text)
     settings = pcbnew.GetSettingsManager()

@@ -57,3 +57,22 @@ def test_tracks_running_past_their_crossing_are_shortened_to_it(board_set, kicad
     assert snapshot["clusters"][result["net"]] == 1
     assert not [v for v in snapshot["violations"] if v["type"] == "track_dangling"]
     assert result["again"]["edits"] == []
+
+
+def test_no_stub_stays_where_a_push_n_shove_reroute_crossed_it(tmp_path):
+    # d2-hard board_00083, scripted-shove: the last push_n_shove rerouted NET12 across one of
+    # its own tracks, whose far end then touched nothing; deleting that track split the net,
+    # so the clean-up was undone and KiCad's DRC counted a dangling track (CP+ < CP).
+    import pcbdata.env
+    from pcbdata.agents.rollout import make_agent, run_episode
+    from pcbdata.testing.sets import write_set
+
+    write_set(tmp_path, "d2-hard", "test", 84)
+    env = pcbdata.env.make(tmp_path, "d2-hard", split="test", drc="terminal")
+    try:
+        record = run_episode(env, make_agent("scripted-shove", 0), "board_00083", 0)
+        violations = env.unwrapped.violations
+    finally:
+        env.close()
+    assert record["terminated"]
+    assert violations == []  # every pad joined, nothing dangling
