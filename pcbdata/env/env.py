@@ -477,8 +477,9 @@ class RoutingEnv(gym.Env):
 
     @property
     def violations(self) -> list[dict] | None:
-        """KiCad's DRC violations of the board as it stands, every type (canonical order);
-        None while the last DRC is older than the board (drc="terminal" mid-episode)."""
+        """KiCad's DRC violations of the board as it stands (canonical order), less the
+        warnings no counting counts (docs/env.md, "What the DRC holds"); None while the last
+        DRC is older than the board (drc="terminal" mid-episode)."""
         return [dict(v) for v in self._violations] if self._drc_fresh else None
 
     @property

@@ -123,10 +123,7 @@ def test_a_rejoin_under_the_new_path_keeps_connections_and_clearance_in_kicad(sh
     """On this board a moved net is joined again on the other layer, a via near each end."""
     under = [s for s in shoving_episode[2] if s[1]["ok"] and s[1]["stats"].get("rejoins_under")]
     assert under, "the board no longer needs a re-join under the new path"
-    for _, _, before, after, clusters, clusters_after, _, _ in under:
-        new = {v["type"] for v in after} - {v["type"] for v in before}
-        assert not new & ERRORS, new
-        assert all(clusters_after[n] <= clusters[n] for n in clusters)
+    _assert_no_new_error_and_no_lost_connection(under)
 
 
 HOP_BOARD = "board_00005"  # a d2-expert board where a moved net is joined again by a via
@@ -144,7 +141,11 @@ def hop_episode(tmp_path_factory):
 def test_a_rejoin_through_a_via_keeps_connections_and_clearance_in_kicad(hop_episode):
     hops = [s for s in hop_episode[2] if s[1]["ok"] and s[1]["stats"].get("rejoin_vias")]
     assert hops, "the board no longer needs a via re-join"
-    for _, _, before, after, clusters, clusters_after, _, _ in hops:
+    _assert_no_new_error_and_no_lost_connection(hops)
+
+
+def _assert_no_new_error_and_no_lost_connection(steps) -> None:
+    for _, _, before, after, clusters, clusters_after, _, _ in steps:
         new = {v["type"] for v in after} - {v["type"] for v in before}
         assert not new & ERRORS, new
         assert all(clusters_after[n] <= clusters[n] for n in clusters)
