@@ -36,6 +36,24 @@ def board_geometry(static: StaticBoard, copper: list[dict]):
     from pcbdata.router.geometry import BoardGeometry, CopperItem
 
     clearance = {net.name: net.clearance for net in static.nets}
+    items = list(_static_items(static))
+    items += [_copper_item(r, static, clearance, CopperItem) for r in copper]
+    return BoardGeometry(outline=static.outline, copper=tuple(items),
+                         edge_clearance=static.edge_clearance)
+
+
+# The latest static board and its items: an episode asks for them after every copper change.
+_last_static: tuple[StaticBoard | None, tuple] = (None, ())
+
+
+def _static_items(static: StaticBoard) -> tuple:
+    """Pads, zones and copper drawings of the static board as `CopperItem`s."""
+    global _last_static
+    if _last_static[0] is static:
+        return _last_static[1]
+    from pcbdata.router.geometry import CopperItem
+
+    clearance = {net.name: net.clearance for net in static.nets}
     default = max([n.clearance for n in static.nets] or [0])
     items = _pad_items(static, clearance, CopperItem)
     items += [CopperItem(kind="zone", net=z["net"], layers=(z["layer"],),
@@ -44,6 +62,5 @@ def board_geometry(static: StaticBoard, copper: list[dict]):
     items += [CopperItem(kind="graphic", net=g["net"], layers=(g["layer"],),
                          polygon=tuple(tuple(p) for p in g["polygon"]),
                          clearance=clearance.get(g["net"], 0)) for g in static.graphics]
-    items += [_copper_item(r, static, clearance, CopperItem) for r in copper]
-    return BoardGeometry(outline=static.outline, copper=tuple(items),
-                         edge_clearance=static.edge_clearance)
+    _last_static = (static, tuple(items))
+    return _last_static[1]

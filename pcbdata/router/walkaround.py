@@ -18,8 +18,9 @@ the inset board corners; two nodes are linked by a straight or one-bend octiline
 Expanding a node checks, in one batch, its links to every node whose cost they would lower.
 
 Most of those links are blocked, so a cheap screen goes first: a ray from a node along a
-heading meets a keep-out drawn just inside the true one (`_Rules.free`); a link segment longer
-than that bound from either of its node ends certainly violates and skips the exact test. The
+heading meets a keep-out drawn just inside the true one (`_Rules.free`, worked out in closed
+form over capsules by `ray_screen`); a link segment longer than that bound from either of its
+node ends certainly violates and skips the exact test. The
 screen only ever removes links that the exact test would refuse, so verdicts, paths and the
 counted work (`checks` counts links asked, screened or not) are those of the exact test alone.
 What a search works out is kept under the state it depends on (the request layer's items,
@@ -35,6 +36,7 @@ import math
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 
 import numpy as np
 import shapely
@@ -52,6 +54,7 @@ from pcbdata.router.geometry import (
     one_bend_paths,
     simplify_path,
 )
+from pcbdata.router.ray_screen import CapsuleScreen, core_pieces
 
 TOLERANCE = 1e-3  # nm: float rounding of distances (see the module doc); no margin is added
 _ROOT2 = math.sqrt(2)
@@ -81,9 +84,8 @@ _DENSE_PAIRS = 20_000
 HEADINGS = _NORMALS
 _HEADING_INDEX = np.array([[5, 4, 3], [6, -1, 2], [7, 0, 1]])
 # Keep-outs for the ray screen (see `_Rules.free`): the allowed distance less this much (nm),
-# drawn as inscribed polygons, so whatever they touch violates the clearance beyond float doubt.
+# so whatever they touch violates the clearance beyond float doubt.
 _SCREEN_SHRINK = 1.0
-_SCREEN_QUAD_SEGS = 16
 # Batches of links with fewer (link, obstacle) pairs than this skip the ray screen.
 _SCREEN_PAIRS = 20_000
 _SCREEN_LINKS = 64  # ... unless they hold this many links
@@ -130,6 +132,12 @@ class _Prepared:
     inner: tuple[float, float]  # a point of the core
     convex: bool
 
+    @cached_property
+    def pieces(self) -> np.ndarray:
+        """(k, 2, 2): the core's straight pieces, for the ray screen (only large searches
+        use it, hence on demand)."""
+        return core_pieces(self.core)
+
 
 def _prepare(core: shapely.Geometry, radius: float) -> _Prepared:
     coords = shapely.get_coordinates(core)
@@ -162,6 +170,14 @@ class _Layer:
         self.inner = np.array([p.inner for p in prepared], dtype=float).reshape(-1, 2)
         self.convex = np.array([p.convex for p in prepared], dtype=bool)
         self.tree = shapely.STRtree(self.cores)
+        self._prepared = prepared
+
+    @cached_property
+    def pieces(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every item's straight pieces (k, 2, 2) and the item each belongs to."""
+        pieces = [p.pieces for p in self._prepared]
+        owner = np.repeat(np.arange(len(pieces)), [len(p) for p in pieces])
+        return np.concatenate(pieces or [np.empty((0, 2, 2))]), owner
 
     def describe(self, index: int) -> str:
         if self.kind[index] == _EDGE:
@@ -197,7 +213,9 @@ class _Rules:
         self.reach = layer.support + self.need[:, None]
         self.max_need = float(need[obstacle].max()) if obstacle.any() else 0.0
         self.obstacles = int(obstacle.sum())
-        self._screen: tuple[np.ndarray, shapely.STRtree] | None = None
+        self._obstacle_items = np.flatnonzero(obstacle)
+        self._obstacle_reach = self.reach[self._obstacle_items]
+        self._screen: CapsuleScreen | None = None
         # Kept for later searches under the same rules (see `WalkaroundRouter._rules`): the
         # search's corner nodes and ray bounds by (x, y, heading).
         self.corners: np.ndarray | None = None
@@ -212,34 +230,25 @@ class _Rules:
         The bound is where the ray enters a keep-out drawn inside the true one (see
         `_SCREEN_SHRINK`), so a segment longer than it fails for sure: the search uses it to
         skip the exact test of links that cannot be clear. `length`: the rays' reach (nm)."""
-        polygons, tree = self._screen_tree()
+        screen = self._capsules()
         out = np.full(len(points), np.inf)
-        if not len(polygons):
+        if not len(screen):
             return out
         # Short rays first: most meet a keep-out soon, and a short ray meets few.
         todo, reach = np.arange(len(points)), min(length, 4 * self.max_need)
         while len(todo):
-            ends = points[todo] + HEADINGS[headings[todo]] * reach
-            rays = shapely.linestrings(np.stack([points[todo], ends], axis=1))
-            ray, item = tree.query(rays, predicate="intersects")
-            if len(ray):
-                hit = shapely.intersection(rays[ray], polygons[item])
-                entry = shapely.distance(shapely.points(points[todo][ray]), hit)
-                np.minimum.at(out, todo[ray], entry)
+            out[todo] = screen.entries(points[todo], HEADINGS[headings[todo]], reach)
             if reach >= length:
                 break
             todo, reach = todo[np.isinf(out[todo])], min(length, 4 * reach)
         return out
 
-    def _screen_tree(self) -> tuple[np.ndarray, shapely.STRtree]:
+    def _capsules(self) -> CapsuleScreen:
         if self._screen is None:
-            items = np.flatnonzero(self.obstacle & (self.need > _SCREEN_SHRINK))
-            polygons = shapely.buffer(
-                self.layer.cores[items], self.need[items] - _SCREEN_SHRINK,
-                quad_segs=_SCREEN_QUAD_SEGS,
-            )
-            polygons = polygons[~shapely.is_empty(polygons)]
-            self._screen = (polygons, shapely.STRtree(polygons))
+            pieces, owner = self.layer.pieces
+            radius = self.need[owner] - _SCREEN_SHRINK
+            keep = self.obstacle[owner] & (radius > 0)
+            self._screen = CapsuleScreen(pieces[keep], radius[keep])
         return self._screen
 
     def violations(self, segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -265,12 +274,12 @@ class _Rules:
 
     def _near_pairs(self, segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(segment, obstacle) pairs that no side of the obstacle's octagon separates."""
-        obstacles = np.flatnonzero(self.obstacle)
+        obstacles = self._obstacle_items
         if not len(segments) or not len(obstacles):
             return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
         lowest = (segments @ _NORMALS.T).min(axis=1)  # (k, 8)
         if len(segments) * len(obstacles) <= _DENSE_PAIRS:
-            near = ~(lowest[:, None, :] >= self.reach[obstacles][None]).any(axis=2)
+            near = ~(lowest[:, None, :] >= self._obstacle_reach[None]).any(axis=2)
             seg, j = np.nonzero(near)
             return seg, obstacles[j]
         lo, hi = segments.min(axis=1) - self.max_need, segments.max(axis=1) + self.max_need
@@ -348,20 +357,26 @@ class WalkaroundRouter:
         return other
 
     def update(self, board: BoardGeometry) -> None:
-        """Takes a new board snapshot; items seen before reuse their prepared shapes."""
+        """Takes a new board snapshot; items seen before reuse their prepared shapes, and the
+        outline's region and edges are kept while the outline and edge clearance stay."""
+        old = getattr(self, "board", None)
         self.board = board
         items = sorted(board.copper, key=item_sort_key)
         self._cache = {
             item: self._cache.get(item) or _prepare(*copper_core(item)) for item in items
         }
-        self._region, edges = _board_region(board.outline)
-        self._edge_records = [(_EDGE, "", board.edge_clearance, _prepare(e, 0.0)) for e in edges]
+        same_edges = old is not None and old.edge_clearance == board.edge_clearance and (
+            old.outline is board.outline or old.outline == board.outline)
+        if not same_edges:
+            self._region, edges = _board_region(board.outline)
+            self._edge_records = [(_EDGE, "", board.edge_clearance, _prepare(e, 0.0))
+                                  for e in edges]
+            self._inset_corners: dict[float, np.ndarray] = {}
         self._layer_items: dict[str, list[CopperItem]] = {}
         for item in items:
             for layer in item.layers:
                 self._layer_items.setdefault(layer, []).append(item)
         self._keys: dict[str, _StateKey] = {}
-        self._inset_corners: dict[float, np.ndarray] = {}
 
     def _layer_key(self, layer: str) -> _StateKey:
         """What a layer's answers depend on: the board outline, the edge clearance and the
