@@ -753,14 +753,10 @@ class _Search:
             self.ruled_out += int((~maybe).sum())
         else:  # a small batch: the exact test costs less than the rays
             maybe = np.ones((2, len(targets)), dtype=bool)
-        parts = [_link_segments(a, ends[maybe[k]], k) for k in (0, 1)]
-        segments = np.concatenate([p[0] for p in parts])
-        owners = [np.flatnonzero(maybe[k])[p[1]] + k * len(targets) for k, p in enumerate(parts)]
-        bad = np.ones(2 * len(targets), dtype=bool)
-        bad[np.concatenate(owners)] = False
-        if len(segments):
-            bad[np.concatenate(owners)[self.rules.failing(segments)]] = True
-        return ~bad[: len(targets)] | ~bad[len(targets) :]
+        links = _LinkBatch(a, ends, maybe)
+        if len(links.segments):
+            links.judge(self.rules.failing(links.segments))
+        return links.clear
 
     def _screen_pays(self) -> bool:
         """Whether the screen still rules out enough to be worth its rays (on open boards
@@ -902,6 +898,40 @@ def _link_segments(
     segments = np.concatenate([direct, first, second]).astype(float)
     owner = np.concatenate([owners[straight], owners[~straight], owners[~straight]])
     return segments, owner
+
+
+class _LinkBatch:
+    """The segments of the link variants still in question from node a to each end, each
+    segment once: an octilinear link is one segment, the same in both variants.
+
+    `judge(failing)` takes the exact verdict per segment; `clear` then says, per end, whether
+    a variant of its link is clear (a variant ruled out before counts as blocked)."""
+
+    def __init__(self, a: np.ndarray, ends: np.ndarray, maybe: np.ndarray):
+        d = ends - a
+        m = np.minimum(np.abs(d[:, 0]), np.abs(d[:, 1]))
+        diag = np.sign(d) * m[:, None]
+        straight = _is_octilinear(a, ends)
+        self.direct = np.flatnonzero(straight & (maybe[0] | maybe[1]))
+        self.bent = [np.flatnonzero(~straight & maybe[k]) for k in (0, 1)]
+        # Variant 0 runs straight then 45 degrees, variant 1 45 degrees then straight.
+        knees = [ends[self.bent[0]] - diag[self.bent[0]], a + diag[self.bent[1]]]
+        firsts = len(self.direct) + len(self.bent[0])
+        starts = np.concatenate([np.broadcast_to(a, (firsts, 2)), knees[0],
+                                 np.broadcast_to(a, (len(self.bent[1]), 2)), knees[1]])
+        stops = np.concatenate([ends[self.direct], knees[0], ends[self.bent[0]],
+                                knees[1], ends[self.bent[1]]])
+        self.segments = np.stack([starts, stops], axis=1).astype(float)
+        self.clear = np.zeros(len(ends), dtype=bool)
+
+    def judge(self, failing: np.ndarray) -> None:
+        at = len(self.direct)
+        self.clear[self.direct] = ~failing[:at]
+        for k in (0, 1):
+            count = len(self.bent[k])
+            ok = ~(failing[at : at + count] | failing[at + count : at + 2 * count])
+            self.clear[self.bent[k]] |= ok
+            at += 2 * count
 
 
 def _reverse(headings: np.ndarray) -> np.ndarray:

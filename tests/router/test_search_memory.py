@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from pcbdata.router.geometry import CopperItem, bends, octilinear_length
-from pcbdata.router.walkaround import WalkaroundRouter, _link_segments, _Search
+from pcbdata.router.walkaround import WalkaroundRouter, _link_segments, _LinkBatch, _Search
 from tests.router.test_walkaround import MM, _pillar_maze, assert_legal, board, pad, request, wall
 
 BASELINE = Path(__file__).parent / "data" / "d2_paths_5a7faa8.json"
@@ -46,6 +46,28 @@ def test_the_ray_screen_never_rules_out_a_clear_link():
     # The screen does its job: nearly every blocked link variant is ruled out without the
     # exact test.
     assert clear > 0 and ruled_out >= 0.9 * (total - clear), (ruled_out, total, clear)
+
+
+def test_a_link_batch_judges_each_link_as_its_variants_one_by_one():
+    """Each segment once (an octilinear link is one segment for both variants), and a link is
+    clear when a variant not ruled out is clear, as the exact test of each variant says."""
+    geometry, req = _pillar_maze()
+    router = WalkaroundRouter(geometry)
+    rules = router._rules(req.net, req.layer, req.width, req.clearance)
+    search = _Search(router, rules, req.start, req.goal, time.perf_counter())
+    search.nodes = np.concatenate([search.ends, search.corners])
+    rng = np.random.default_rng(3)
+    straight = bent = 0
+    for v in range(0, len(search.nodes), 5):
+        targets = np.setdiff1d(np.arange(len(search.nodes)), [v])
+        maybe = rng.random((2, len(targets))) < 0.8
+        links = _LinkBatch(search.nodes[v], search.nodes[targets], maybe)
+        links.judge(rules.failing(links.segments))
+        exact = _exact_variants(search, v, targets)
+        assert (links.clear == ((exact[0] & maybe[0]) | (exact[1] & maybe[1]))).all()
+        straight += len(links.direct)
+        bent += len(links.bent[0]) + len(links.bent[1])
+    assert straight > 0 and bent > 0
 
 
 def test_an_answer_is_remembered_until_its_layer_changes():
