@@ -32,9 +32,10 @@ def _add_reference_options(parser) -> None:
     group.add_argument("--reference-agent", nargs="?", const=DEFAULT_AGENT, choices=AGENTS,
                        metavar="NAME",
                        help="route each board of the reference splits with a bundled agent "
-                            "in the routing environment and keep its first clean rollout "
-                            f"as reference.kicad_pcb: {' or '.join(AGENTS)} (the default "
-                            "when NAME is left out)")
+                            "in the routing environment (--workers boards at a time) and keep "
+                            "its first clean rollout as reference.kicad_pcb: "
+                            f"{DEFAULT_AGENT} (the default when NAME is left out) or "
+                            f"{', '.join(a for a in AGENTS if a != DEFAULT_AGENT)}")
     group.add_argument("--reference-rollouts", type=checks.integer(1, MAX_ROLLOUTS),
                        metavar="K",
                        help=f"rollouts per board, seeds 0..K-1, stopping at the first clean "
