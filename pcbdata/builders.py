@@ -28,6 +28,7 @@ from pcbdata.synthetic.build import (
     check_sample,
     locked_root,
 )
+from pcbdata.synthetic.reference_routing import ReferencePlan
 
 Log = Callable[[str], None]
 # Board ids have five digits (`board_00000` .. `board_99999`) and sort in index order only
@@ -53,7 +54,9 @@ class SyntheticOptions:
     generation and checks (default: all cores); `publish`: write the parquet shards, card and
     pictures at the end; `log`: where progress lines go (default: stderr); `executor`: where
     generation and checks run (`pcbdata.executors`: None or "local" for this machine's
-    worker processes, `RayExecutor(address)` or "ray" for a Ray cluster; same bytes)."""
+    worker processes, `RayExecutor(address)` or "ray" for a Ray cluster; same bytes);
+    `reference`: route each board of the plan's splits with a bundled agent and keep a clean
+    rollout as its reference (`pcbdata.agents.reference.plan(...)`; None: no routing)."""
 
     splits: list[str] | None = None
     seed: int | None = None
@@ -64,6 +67,7 @@ class SyntheticOptions:
     publish: bool = True
     log: Log = _stderr
     executor: Executor | str | None = None
+    reference: ReferencePlan | None = None
 
     def resolved_workers(self) -> int:
         return self.workers or os.cpu_count() or 1
@@ -83,17 +87,31 @@ class SyntheticOptions:
             if split not in SYNTHETIC_SPLITS:
                 raise UserError(f"unknown split {split!r}; choose from "
                                 f"{', '.join(SYNTHETIC_SPLITS)}")
+        self._validate_reference()
+
+    def _validate_reference(self) -> None:
+        """Reference routing applies to splits being built; naming another is a mistake."""
+        if self.reference is None or self.reference.splits is None:
+            return
+        built = self.splits or list(SYNTHETIC_SPLITS)
+        missing = [s for s in self.reference.splits if s not in built]
+        if missing:
+            raise UserError(f"--reference-splits: {', '.join(missing)} is not among the splits "
+                            f"being built ({', '.join(built)})")
 
 
 def _jobs(spec: ConfigSpec, options: SyntheticOptions) -> list[SplitJob]:
     generator = spec.generator()
     wanted = options.splits or list(spec.splits)
+    built = [s for s in spec.splits if s in wanted]
+    routed = options.reference.routed_splits(built) if options.reference else []
     jobs = []
-    for split in (s for s in spec.splits if s in wanted):
+    for split in built:
         count = options.count or spec.sizes[split]
         checked = [] if not options.check else check_sample(
             count, options.check_train if split == "train" else None)
-        jobs.append(SplitJob(spec.name, split, count, generator, checked))
+        jobs.append(SplitJob(spec.name, split, count, generator, checked,
+                             reference=split in routed))
     return jobs
 
 
@@ -119,14 +137,23 @@ def build_configs(out: str | Path, specs: list[ConfigSpec],
     executor = resolve(options.executor)
     where = f"{workers} workers" if executor.name == "local" else f"executor {executor.name}"
     options.log(f"pcbdata build: {', '.join(sorted(configs))} -> {out} ({where})")
+    if options.reference is not None:
+        options.log(_reference_line(options.reference, jobs))
     with locked_root(out):  # a second build into the folder waits for this one
         summary = build_synthetic(out, jobs, configs, workers=workers, log=options.log,
-                                  executor=executor)
+                                  executor=executor, reference=options.reference)
         if options.publish:
             from pcbdata.publish import publish_set
 
             publish_set(out, list(configs))
     return summary
+
+
+def _reference_line(plan: ReferencePlan, jobs: list[SplitJob]) -> str:
+    routed = list(dict.fromkeys(job.split for job in jobs if job.reference))
+    where = ", ".join(routed) if routed else \
+        "no split (validation and test are routed unless --reference-splits names others)"
+    return (f"reference routing: {plan.agent}, seeds 0..{plan.rollouts - 1}, splits: {where}")
 
 
 def build_d1(out: str | Path, grids: list[int] | None = None, placement: str | None = None,

@@ -44,7 +44,7 @@ def pytest_sessionfinish(session, exitstatus):
     their temp folders; the run removes them before it ends."""
     from pcbdata.core.fsutil import sweep_owned_temp_folders
 
-    for kind in ("pool", "env"):
+    for kind in ("pool", "env", "reference"):
         sweep_owned_temp_folders(kind)
 
 

@@ -94,7 +94,7 @@ def run_episode(env, agent, board_id: str, seed: int) -> dict:
 _ENV: dict[str, Any] = {}  # this worker's environment and the arguments it was made with
 
 
-def _env(env_kwargs: dict):
+def worker_env(env_kwargs: dict):
     """This worker's environment for `env_kwargs`, made again when they change (a Ray node's
     worker outlives one run and may serve the next run's rollouts, with other options)."""
     import gymnasium as gym
@@ -127,7 +127,7 @@ def rollout_task(env_kwargs: dict, agent_spec: str, board_id: str, rollout: int,
     """Runs and writes one rollout (in a worker process). An agent with an `episode` method
     runs the whole episode itself (the language-model agents); one that sets `board_text`
     gives the rollout's board as text instead of the environment's board."""
-    env = _env(env_kwargs)
+    env = worker_env(env_kwargs)
     agent = make_agent(agent_spec, rollout, agent_options)
     if hasattr(agent, "episode"):
         record = agent.episode(env, board_id, rollout, env_kwargs)

@@ -1,4 +1,4 @@
-"""`pcbdata eval`: score a submission of routed boards (or a D3 config's reference boards)."""
+"""`pcbdata eval`: score a submission of routed boards (or a set's reference boards)."""
 from __future__ import annotations
 
 import os
@@ -25,7 +25,9 @@ def register(parser) -> None:
                         help="submission folder: RUNS/<board_id>/<rollout>.kicad_pcb "
                              "(+ optional <rollout>.json with time_s)")
     parser.add_argument("--reference", action="store_true",
-                        help="score the set's reference boards (D3) instead of a submission")
+                        help="score the set's reference boards (D3, D1 random-walk, D2R built "
+                             "with --reference-agent) instead of a submission; boards without "
+                             "one are counted, named and left out")
     parser.add_argument("--out", required=True, metavar="REPORT", help="report folder (resumable)")
     parser.add_argument("--k", type=checks.positive, default=5,
                         help="rollouts per board (default: 5)")

@@ -4,9 +4,11 @@
     DIR/<config>/<split>/<board_id>/board.kicad_pcb     the task (bare board)
     DIR/<config>/<split>/<board_id>/board.kicad_pro     its project: design rules, severities
     DIR/<config>/<split>/<board_id>/board.kicad_dru     custom rules (D1: the one-layer rule)
-    DIR/<config>/<split>/<board_id>/reference.kicad_pcb a routed solution (D1 random-walk, D3)
+    DIR/<config>/<split>/<board_id>/reference.kicad_pcb a routed solution (D1 random-walk, D3,
+                                                        D2R built with --reference-agent)
     DIR/<config>/<split>.npz                            split arrays (D1: the Connector arrays)
     DIR/.pcbdata/checks.jsonl                           synthetic builds: KiCad checks passed
+    DIR/.pcbdata/references.jsonl                       synthetic builds: reference routings found
     DIR/.d3-state/                                      D3 builds: per-board engine results
     DIR/characteristics.csv, curation_report.*, attribution.*, LICENSE-PCBench   D3 tables
 
@@ -31,6 +33,7 @@ INSTANCE_FILES = (BOARD_FILE, PROJECT_FILE, RULES_FILE)
 
 SYNTHETIC_STATE_DIR = ".pcbdata"
 CHECK_LOG = "checks.jsonl"
+REFERENCE_LOG = "references.jsonl"
 D3_STATE_DIR = ".d3-state"
 
 CHARACTERISTICS_CSV = "characteristics.csv"
@@ -99,10 +102,16 @@ def check_log_path(root: str | os.PathLike) -> Path:
     return Path(root) / SYNTHETIC_STATE_DIR / CHECK_LOG
 
 
-def folder_holds(folder: Path, files: Mapping[str, bytes]) -> bool:
-    """Whether `folder` holds exactly `files` (names and bytes): a finished board is kept."""
+def reference_log_path(root: str | os.PathLike) -> Path:
+    return Path(root) / SYNTHETIC_STATE_DIR / REFERENCE_LOG
+
+
+def folder_holds(folder: Path, files: Mapping[str, bytes], may_hold: tuple[str, ...] = ()) -> bool:
+    """Whether `folder` holds exactly `files` (names and bytes), besides any of `may_hold`
+    (files a later stage adds, e.g. a router-found reference): a finished board is kept."""
     try:
-        if sorted(os.listdir(folder)) != sorted(files):
+        listed = [name for name in os.listdir(folder) if name in files or name not in may_hold]
+        if sorted(listed) != sorted(files):
             return False
         return all((folder / name).read_bytes() == data for name, data in files.items())
     except (FileNotFoundError, NotADirectoryError):

@@ -353,6 +353,9 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
     if not allow_unverified:
         refuse_unverified(identity, root)
     instances = every[:limit] if limit is not None else every
+    without: list[str] = []
+    if reference:
+        instances, without = _with_reference(instances, config, split, limit)
     plan = _plan(instances, runs_dir, k)
     warnings = {} if runs_dir is None else runs_warnings(
         runs_dir, [b for b, _ in every], [b for b, _ in instances], k)
@@ -363,6 +366,10 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
         rollout_rows = _rollout_rows(plan, records, reference, warnings)
         if warnings and progress and runs_dir is not None:
             _print_warnings(warnings, runs_dir)
+        if without and progress:
+            print(f"pcbdata eval: {_without_line(len(instances), without)} "
+                  f"({', '.join(without[:_SHOWN_WARNINGS])}"
+                  f"{', ...' if len(without) > _SHOWN_WARNINGS else ''})", file=sys.stderr)
         by_board: dict[str, list[dict]] = {}
         for row in rollout_rows:
             by_board.setdefault(row["board_id"], []).append(row)
@@ -373,6 +380,9 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                        cache=cache_stats)
         if warnings:
             summary["runs_warnings"] = warnings
+        if reference:
+            summary.update(n_boards_without_reference=len(without),
+                           boards_without_reference=without)
         llm = None if runs_dir is None else llm_totals((p[4] for p in plan), _read_sidecar)
         if llm:
             summary["llm"] = llm  # language-model accounting, only when rollouts record it
@@ -394,16 +404,36 @@ def _check_out(out: Path, root: Path, runs: Path | None) -> None:
             raise UserError(f"--out {out}: inside {what} ({folder}); give a folder outside it")
 
 
+#: Where reference boards come from, for the message of a split without any.
+REFERENCE_SOURCES = ("D3 configs (the routed originals), D1 random-walk configs (the planted "
+                     "walks) and D2R sets built with --reference-agent (router-found, where the "
+                     "router completed the board)")
+
+
+def _with_reference(instances: list[tuple[str, Path]], config: str, split: str,
+                    limit: int | None) -> tuple[list[tuple[str, Path]], list[str]]:
+    """(instances that have a reference board, ids of those that have none); none at all is
+    an error: there is nothing to score."""
+    having = [(b, d) for b, d in instances if (d / REFERENCE_FILE).is_file()]
+    if not having:
+        among = f"the first {limit}" if limit is not None else f"its {len(instances)}"
+        raise UserError(f"{config}/{split}: none of {among} boards has a reference board "
+                        f"({REFERENCE_FILE}); reference boards come with {REFERENCE_SOURCES}")
+    return having, [b for b, d in instances if not (d / REFERENCE_FILE).is_file()]
+
+
+def _without_line(scored: int, without: list[str]) -> str:
+    return (f"{len(without)} of {scored + len(without)} boards have no reference board and "
+            f"are not scored; the figures are over the {scored} that have one")
+
+
 def _plan(instances: list[tuple[str, Path]], runs: Path | None, k: int) -> Plan:
-    """Every rollout to score; `runs` None scores each instance's reference board."""
+    """Every rollout to score; `runs` None scores each instance's reference board (the
+    instances given have one: `_with_reference`)."""
     plan = []
     for board_id, directory in instances:
         if runs is None:
-            ref = directory / REFERENCE_FILE
-            if not ref.is_file():
-                raise UserError(f"{directory}: no reference.kicad_pcb (only D3 configs have "
-                                f"reference boards)")
-            rollouts = [("reference", ref)]
+            rollouts = [("reference", directory / REFERENCE_FILE)]
         else:
             rollouts = list_rollouts(runs, board_id, k)
             if not rollouts:
@@ -503,4 +533,7 @@ def _write_report(out: Path, label: str, summary: dict, table: str, rollout_rows
               f"{summary['n_boards']} boards ({summary['n_boards_scored']} with a scored "
               f"rollout), {summary['n_rollouts']} rollouts ({summary['n_timed']} with a time), "
               f"evaluator {EVALUATOR_VERSION}\n\n{set_line(summary['set'])}\n\n")
+    if summary.get("n_boards_without_reference"):
+        header += (_without_line(summary["n_boards"], summary["boards_without_reference"])
+                   + ".\n\n")
     write_atomic(out / "summary.md", header + table)

@@ -228,7 +228,7 @@ def card_text(manifest: dict, state: dict) -> str:
         _intro(manifest),
         _configs_table(manifest, state, configs, default),
         _loading(default),
-        _COLUMNS_SECTION,
+        _columns(manifest, configs),
         _how_made(manifest, configs, families),
         _SCORING_SECTION,
         _pictures(state, configs),
@@ -312,6 +312,39 @@ _COLUMNS_SECTION = [
     "| other columns | per-board facts of the manifest, e.g. D3 source and licence |", ""]
 
 
+def _routed_splits(cfg: dict) -> dict[str, dict]:
+    """Split -> the manifest's record of its router-found references (`pcbdata build d2r
+    --reference-agent`), for the splits that have one."""
+    return {name: split["reference_routing"] for name, split in cfg.get("splits", {}).items()
+            if "reference_routing" in split}
+
+
+def _columns(manifest: dict, configs: list[str]) -> list[str]:
+    """The columns table; the rows of router-found references only when a config has them, so
+    the cards of other sets stay as they were."""
+    if not any(_routed_splits(manifest["configs"][c]) for c in configs):
+        return _COLUMNS_SECTION
+    extra = ["| `reference` (D2R) | a routing found by a bundled agent where it completed the "
+             "board; null where it did not |",
+             "| `reference_routing_*` | D2R: where the reference came from (`status`, `agent`, "
+             "`seed`, `env_id`, `package_version`) or why there is none (`reason`) |"]
+    at = _COLUMNS_SECTION.index("| `reference` | D3: the routed original board |") + 1
+    return _COLUMNS_SECTION[:at] + extra + _COLUMNS_SECTION[at:]
+
+
+def _reference_line(config: str, cfg: dict) -> str | None:
+    routed = _routed_splits(cfg)
+    if not routed:
+        return None
+    parts = [f"{name} {r['routed']} of {r['boards']}" for name, r in routed.items()]
+    first = next(iter(routed.values()))
+    return (f"`{config}` reference routings, found by the bundled agent `{first['agent']}` "
+            f"in the routing environment (seeds 0..{first['rollouts'] - 1}, the first clean "
+            f"rollout kept): {', '.join(parts)} boards routed. No board was left out: a "
+            "board the agent did not complete has no reference, so a CP ceiling is known only "
+            "on the routed share, which leans towards the easier boards.")
+
+
 def _how_made(manifest: dict, configs: list[str], families: list[str]) -> list[str]:
     out = ["## How the boards were made", ""]
     for family in families:
@@ -321,6 +354,8 @@ def _how_made(manifest: dict, configs: list[str], families: list[str]) -> list[s
             cfg = manifest["configs"][config]
             if cfg.get("family") == family:
                 out += [_config_line(config, cfg), ""]
+                reference = _reference_line(config, cfg)
+                out += [reference, ""] if reference else []
     if {"d1", "d2", "d2r"} & set(families):
         out += ["Same parameters and seed give byte-identical boards. Every generated board "
                 "loads in KiCad and passes its DRC with no violation other than the unconnected "

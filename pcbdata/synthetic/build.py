@@ -1,19 +1,22 @@
-"""Builds synthetic board sets (D1, D2) into a folder: boards, arrays, KiCad checks, manifest.
+"""Builds synthetic board sets (D1, D2, D2R) into a folder: boards, arrays, KiCad checks,
+manifest, and (opt-in) router-found reference routings (`reference_routing`).
 
 Resumable: board folders are written atomically and skipped when their bytes are already
 right; KiCad checks are logged per board hash in `DIR/.pcbdata/checks.jsonl`; the manifest is
-written last, so an interrupted build is just run again.
+written last, so an interrupted build is just run again. With reference routing the manifest
+is written once the boards pass their checks (the routing environment reads the set's config
+from it) and again once the references are routed and checked.
 """
 from __future__ import annotations
 
 import json
 import os
 import shutil
-import sys
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 
 from pcbdata import __version__
@@ -46,6 +49,9 @@ from pcbdata.generators.base import Generator, SplitArrays
 from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.model.kicad_writer import board_files
 from pcbdata.model.manifest import FORMAT, merge_configs, write_manifest
+from pcbdata.synthetic import reference_routing
+from pcbdata.synthetic.progress import Progress
+from pcbdata.synthetic.reference_routing import ReferencePlan
 
 STATE_DIR = SYNTHETIC_STATE_DIR
 _CHUNK = 128
@@ -62,6 +68,7 @@ class SplitJob:
     count: int
     generator: Generator  # picklable: runs in worker processes
     check_indices: list[int]
+    reference: bool = False  # route a reference for each board (the build's ReferencePlan)
 
 
 @dataclass
@@ -85,11 +92,23 @@ class BuildSummary:
     failures: list[str] = field(default_factory=list)
     engine_failures: list[tuple[str, str]] = field(default_factory=list)  # (board, reason)
     seconds: float = 0.0
+    references: dict[str, int] | None = None  # boards per reference status (None: option off)
+    references_kept: int = 0  # of them, results of an earlier run
 
     def line(self) -> str:
         return (f"{self.boards} boards ({self.written} written, {self.unchanged} unchanged), "
                 f"{self.checked} checked in KiCad ({self.check_skipped} already checked), "
-                f"{len(self.failures)} failures, {self.seconds:.1f} s")
+                f"{len(self.failures)} failures, {self.seconds:.1f} s{self._reference_line()}")
+
+    def _reference_line(self) -> str:
+        if self.references is None:
+            return ""
+        n = self.references
+        return (f"; references: {n['routed']} of {sum(n.values())} boards routed "
+                f"({self.references_kept} kept from an earlier run), {n['not_completed']} not "
+                f"completed, {n['check_failed']} refused by the KiCad check, "
+                f"{n['engine_failure']} engine failures"
+                + (" (run again to retry them)" if n["engine_failure"] else ""))
 
 
 def check_sample(count: int, sample: int | None) -> list[int]:
@@ -126,7 +145,9 @@ def _generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> 
             files[REFERENCE_FILE] = board_files(instance.reference)[BOARD_FILE]
         encoded = {name: text.encode("utf-8") for name, text in files.items()}
         board_dir = folder / instance.board_id
-        written = not folder_holds(board_dir, encoded)
+        # A router-found reference is added later by this build; an unchanged board keeps it.
+        later = (REFERENCE_FILE,) if job.reference and REFERENCE_FILE not in encoded else ()
+        written = not folder_holds(board_dir, encoded, later)
         if written:
             write_dir_atomic(board_dir, dict[str, bytes | str](encoded))
         out.append({
@@ -139,20 +160,6 @@ def _generate_chunk(root: str, job: SplitJob, seed: int, indices: list[int]) -> 
             "array_row": arrays.array_row(instance) if arrays is not None else None,
         })
     return out
-
-
-class _Progress:
-    def __init__(self, label: str, total: int, stream=None):
-        self.label, self.total, self.stream = label, total, stream or sys.stderr
-        self.done, self.start, self.last = 0, time.perf_counter(), 0.0
-
-    def advance(self, n: int = 1) -> None:
-        self.done += n
-        now = time.perf_counter()
-        if now - self.last >= 2.0 or self.done == self.total:
-            self.last = now
-            print(f"  {self.label}: {self.done}/{self.total} ({now - self.start:.1f} s)",
-                  file=self.stream, flush=True)
 
 
 def check_root(root: str | Path) -> Path:
@@ -222,15 +229,19 @@ def check_problem(report: DrcReport, expected_unconnected: int) -> str | None:
 def build_synthetic(root: str | Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
                     workers: int | None = None, log: Callable[[str], None] | None = None,
                     task_timeout: float = 120.0,
-                    executor: Executor | str | None = None) -> BuildSummary:
+                    executor: Executor | str | None = None,
+                    reference: ReferencePlan | None = None) -> BuildSummary:
     """Builds `jobs` into `root`; tasks run on `executor` (default: this machine's workers;
-    `pcbdata.executors`), with the same bytes whichever runs them."""
+    `pcbdata.executors`), with the same bytes whichever runs them. `reference` routes the
+    boards of the jobs marked `reference` (`reference_routing`)."""
     with locked_root(root) as folder:
-        return _build_locked(folder, jobs, configs, workers, task_timeout, resolve(executor))
+        return _build_locked(folder, jobs, configs, workers, task_timeout, resolve(executor),
+                             reference)
 
 
 def _build_locked(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
-                  workers: int | None, task_timeout: float, executor: Executor) -> BuildSummary:
+                  workers: int | None, task_timeout: float, executor: Executor,
+                  reference: ReferencePlan | None = None) -> BuildSummary:
     workers = max(1, workers or os.cpu_count() or 1)
     started = time.perf_counter()
     _prepare_root(root)
@@ -241,7 +252,7 @@ def _build_locked(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInf
     with executor.pool(workers=workers, task_timeout=_GENERATE_TIMEOUT) as pool:
         for job in jobs:
             seed = configs[job.config].seed
-            progress = _Progress(f"{job.config}/{job.split} write", job.count)
+            progress = Progress(f"{job.config}/{job.split} write", job.count)
             chunks = [list(range(i, min(i + _CHUNK, job.count)))
                       for i in range(0, job.count, _CHUNK)]
             results: list[dict] = []
@@ -260,9 +271,50 @@ def _build_locked(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInf
                 data = job.generator.split_arrays([r["board_id"] for r in results],
                                                   [r["array_row"] for r in results])
                 write_atomic(arrays_path(root, job.config, job.split), data)
-    _check_in_kicad(root, jobs, configs, entries, summary,
-                    lambda: executor.pool(workers=workers, task_timeout=task_timeout))
+    check_pool = partial(executor.pool, workers=workers, task_timeout=task_timeout)
+    if reference is None:
+        _check_and_write(root, jobs, configs, entries, summary, check_pool)
+    else:
+        # A rollout worker keeps one environment (and its KiCad worker) for all its boards.
+        route_pool = partial(executor.pool, task_timeout=reference.task_timeout,
+                             tasks_per_worker=10**9, memory_limit_mb=0)
+        _references(root, jobs, configs, entries, summary, check_pool, reference,
+                    route_pool, workers)
     summary.seconds = time.perf_counter() - started
+    return summary
+
+
+def _check_and_write(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo], entries,
+                     summary: BuildSummary, check_pool: Callable[[], TaskPool],
+                     reference: ReferencePlan | None = None) -> None:
+    """KiCad checks of what is not checked yet, then the manifest (none if a check failed)."""
+    _check_in_kicad(root, jobs, configs, entries, summary, check_pool, reference)
+    _raise_check_failures(summary)
+    _write_manifest(root, jobs, configs, entries, reference)
+
+
+def _references(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo], entries,
+                summary: BuildSummary, check_pool: Callable[[], TaskPool],
+                reference: ReferencePlan, route_pool: Callable[[int], TaskPool],
+                workers: int) -> None:
+    """The build with reference routing: results of an earlier run restored, boards checked and
+    the manifest written (the environment reads the set's config from it), the other boards
+    routed (a rollout worker each: `route_pool`), the new references checked, the manifest
+    written again."""
+    boards = [(job.config, job.split, entry) for job in jobs if job.reference
+              for entry in entries[(job.config, job.split)]]
+    to_route = reference_routing.restore(root, reference, boards)
+    summary.references_kept = sum("reference_routing" in entry for *_, entry in boards)
+    _check_and_write(root, jobs, configs, entries, summary, check_pool, reference)
+    if to_route:
+        reference_routing.route(root, reference, to_route, route_pool, workers)
+        skipped = summary.check_skipped  # the second pass skips what the first one counted
+        _check_and_write(root, jobs, configs, entries, summary, check_pool, reference)
+        summary.check_skipped = skipped
+    summary.references = reference_routing.counts([entry for *_, entry in boards])
+
+
+def _raise_check_failures(summary: BuildSummary) -> None:
     if summary.engine_failures:
         board, reason = summary.engine_failures[0]
         more = len(summary.engine_failures) - 1
@@ -271,9 +323,6 @@ def _build_locked(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInf
         raise ValidationError(
             f"{len(summary.failures)} board(s) failed the KiCad check; the set is left "
             f"without a manifest. First failures:\n  " + "\n  ".join(summary.failures[:5]))
-    _write_manifest(root, jobs, configs, entries)
-    summary.seconds = time.perf_counter() - started
-    return summary
 
 
 def _chunk_entries(outcome, job: SplitJob, chunk: list[int]) -> list[dict]:
@@ -314,10 +363,12 @@ def _remove_extra_boards(split_dir: Path, keep: set[str]) -> None:
 
 
 def _check_in_kicad(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
-                    entries, summary: BuildSummary, engine: Callable[[], TaskPool]) -> None:
-    """Checks the boards not checked yet, in a pool made by `engine`."""
+                    entries, summary: BuildSummary, engine: Callable[[], TaskPool],
+                    reference: ReferencePlan | None = None) -> None:
+    """Checks the boards not checked yet, in a pool made by `engine`. A router-found reference
+    that fails is dropped with the reason (`reference_routing.refuse`), not a failed build."""
     checks = _CheckLog(root)
-    todo = []  # (relative board path, sha, expected unconnected, description)
+    todo = []  # (relative board path, sha, expected unconnected, job, entry)
     for job in jobs:
         by_index = {r["index"]: r for r in entries[(job.config, job.split)]}
         for index in job.check_indices:
@@ -330,22 +381,26 @@ def _check_in_kicad(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigI
                 if (rel, entry["files"][name]) in checks.done:
                     summary.check_skipped += 1
                 else:
-                    todo.append((rel, entry["files"][name], expected, job))
+                    todo.append((rel, entry["files"][name], expected, job, entry))
     if not todo:
         checks.close()
         return
-    progress = _Progress("KiCad check", len(todo))
+    progress = Progress("KiCad check", len(todo))
     try:
         with engine() as pool:
             args = [_drc_args(root, rel) for rel, *_ in todo]
             for outcome in pool.map("pcbdata.kicad.basics:drc", args):
-                rel, sha, expected, job = todo[outcome.index]
+                rel, sha, expected, job, entry = todo[outcome.index]
                 progress.advance()
                 if not outcome.ok:
                     summary.engine_failures.append((rel, outcome.error))
                     continue
                 problem = check_problem(DrcReport.from_dict(outcome.value), expected)
-                if problem:
+                if problem and reference is not None and rel.endswith("/" + REFERENCE_FILE) \
+                        and "reference_routing" in entry:
+                    reference_routing.refuse(root, reference, (job.config, job.split, entry),
+                                             problem)
+                elif problem:
                     params = json.dumps(configs[job.config].parameters, sort_keys=True)
                     summary.failures.append(f"{rel}: {problem} (parameters {params})")
                 else:
@@ -377,7 +432,7 @@ def _kicad_version(required: bool) -> str:
 
 
 def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigInfo],
-                    entries) -> None:
+                    entries, reference: ReferencePlan | None = None) -> None:
     built: dict[str, dict] = {}
     for job in jobs:
         info = configs[job.config]
@@ -388,8 +443,12 @@ def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigI
         })
         boards = {}
         for entry in sorted(entries[(job.config, job.split)], key=lambda e: e["board_id"]):
-            boards[entry["board_id"]] = {"files": entry["files"], **entry["facts"]}
+            origin = {k: entry[k] for k in ("reference_routing",) if k in entry}
+            boards[entry["board_id"]] = {"files": entry["files"], **entry["facts"], **origin}
         split = {"count": job.count, "kicad_checked": len(job.check_indices), "boards": boards}
+        if job.reference and reference is not None:
+            split["reference_routing"] = reference_routing.split_record(
+                reference, entries[(job.config, job.split)])
         if isinstance(job.generator, SplitArrays):
             npz = arrays_path(root, job.config, job.split)
             split["arrays"] = {arrays_name(job.split): sha256_bytes(npz.read_bytes())}
