@@ -49,22 +49,21 @@ class CapsuleScreen:
     """Capsules (piece, radius) in an R-tree of their bounding boxes."""
 
     def __init__(self, pieces: np.ndarray, radius: np.ndarray):
-        self.start, self.end, self.radius = pieces[:, 0], pieces[:, 1], radius
-        e = self.end - self.start
-        self.span = np.hypot(e[:, 0], e[:, 1])
-        self.has_side = self.span > 0
-        # Unit vector along each piece and its normal (zero for a zero-length piece).
-        self.along = np.divide(e, self.span[:, None], out=np.zeros_like(e),
-                               where=self.has_side[:, None])
-        self.normal = np.stack([-self.along[:, 1], self.along[:, 0]], axis=1)
-        low = np.minimum(self.start, self.end) - radius[:, None]
-        high = np.maximum(self.start, self.end) + radius[:, None]
+        start, end = pieces[:, 0], pieces[:, 1]
+        e = end - start
+        span = np.hypot(e[:, 0], e[:, 1])
+        # Unit vector along each piece (zero for a zero-length piece).
+        along = np.divide(e, span[:, None], out=np.zeros_like(e), where=span[:, None] > 0)
+        # One row per capsule, gathered once per batch: ax, ay, r, span, ux, uy.
+        self.table = np.column_stack([start, radius, span, along])
+        low = np.minimum(start, end) - radius[:, None]
+        high = np.maximum(start, end) + radius[:, None]
         # Queried by the rays' bounding boxes: an exact predicate costs more than the
         # closed-form test that follows.
         self.tree = shapely.STRtree(shapely.box(low[:, 0], low[:, 1], high[:, 0], high[:, 1]))
 
     def __len__(self) -> int:
-        return len(self.radius)
+        return len(self.table)
 
     def entries(self, points: np.ndarray, directions: np.ndarray, length: float) -> np.ndarray:
         """Per ray (point, unit direction), the distance along it to the first capsule it
@@ -82,34 +81,34 @@ class CapsuleScreen:
         return out
 
     def _entry(self, p: np.ndarray, d: np.ndarray, capsule: np.ndarray) -> np.ndarray:
-        """Entry distance of each ray p + t d (t >= 0) into its capsule; inf if it misses."""
-        a, r, span = self.start[capsule], self.radius[capsule], self.span[capsule]
-        u, n = self.along[capsule], self.normal[capsule]
-        t = np.minimum(_disc_entry(p, d, a, r), _disc_entry(p, d, self.end[capsule], r))
-        w = p - a
-        offset, approach, ahead = _dot(n, w), _dot(n, d), _dot(u, w)
+        """Entry distance of each ray p + t d (t >= 0) into its capsule; inf if it misses.
+        Written on columns: these batches are small and many, so fewer array operations
+        matter more than fewer lines."""
+        ax, ay, r, span, ux, uy = self.table[capsule].T
+        dx, dy = d[:, 0], d[:, 1]
+        wx, wy = p[:, 0] - ax, p[:, 1] - ay
+        t = np.minimum(_disc_entry(wx, wy, dx, dy, r),
+                       _disc_entry(wx - span * ux, wy - span * uy, dx, dy, r))
+        offset, approach = ux * wy - uy * wx, ux * dy - uy * dx  # across the piece
+        ahead = ux * wx + uy * wy  # along it
         # The side line the ray crosses into the band |offset| <= r.
-        crossing = self.has_side[capsule] & (approach != 0)
+        crossing = (span > 0) & (approach != 0)
         side = np.divide(-np.sign(approach) * r - offset, approach,
                          out=np.zeros(len(p)), where=crossing)
-        along = ahead + side * _dot(u, d)
-        on_side = crossing & (side >= 0) & (along >= 0) & (along <= span)
+        foot = ahead + side * (ux * dx + uy * dy)
+        on_side = crossing & (side >= 0) & (foot >= 0) & (foot <= span)
         t = np.where(on_side, np.minimum(t, side), t)
         # A start inside the capsule: its distance to the piece is within the radius.
         beside = np.clip(ahead, 0.0, span)
-        inside = np.hypot(w[:, 0] - beside * u[:, 0], w[:, 1] - beside * u[:, 1]) <= r
+        inside = np.hypot(wx - beside * ux, wy - beside * uy) <= r
         return np.where(inside, 0.0, t)
 
 
-def _dot(x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    return x[:, 0] * y[:, 0] + x[:, 1] * y[:, 1]
-
-
-def _disc_entry(p: np.ndarray, d: np.ndarray, centre: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """Where each ray enters the disc (centre, r) from outside; inf if it does not."""
-    w = p - centre
-    half_b = _dot(d, w)
-    disc = half_b * half_b - (_dot(w, w) - r * r)
-    root = np.sqrt(np.maximum(disc, 0.0))
-    t = -half_b - root
+def _disc_entry(wx: np.ndarray, wy: np.ndarray, dx: np.ndarray, dy: np.ndarray,
+                r: np.ndarray) -> np.ndarray:
+    """Where each ray (start at w from the disc's centre, unit direction d) enters the disc of
+    radius r from outside; inf if it does not."""
+    half_b = dx * wx + dy * wy
+    disc = half_b * half_b - (wx * wx + wy * wy - r * r)
+    t = -half_b - np.sqrt(np.maximum(disc, 0.0))
     return np.where((disc >= 0) & (t >= 0), t, np.inf)
