@@ -1,15 +1,16 @@
 """D2R: realistic synthetic boards, calibrated to the D3 tiers (SPEC section 2b).
 
-Multi-pad parts from a parametric footprint library (`footprints`), placed on both sides at 0,
-90, 180 or 270 degrees with disjoint courtyards, inside rectangular or shaped outlines with
-mounting holes (`d2r_layout`); power nets touching many pins, signal nets joining pins of
-nearby parts, unconnected pins; a `Power` net class with its own clearance, track and via,
-enforced by the project and by a rule in the board's `.kicad_dru`; 2 or 4 copper layers.
+Multi-pad parts from a parametric footprint library (`footprints`, drawn by `d2r_parts`),
+placed on both sides at 0, 90, 180 or 270 degrees with disjoint courtyards, inside rectangular
+or shaped outlines with mounting holes (`d2r_layout`); power nets touching many pins, signal
+nets joining pins of nearby parts, unconnected pins; a `Power` net class with its own
+clearance, track and via, enforced by the project and by a rule in the board's `.kicad_dru`;
+2 or 4 copper layers.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 from pcbdata.core.errors import GenerationError
 from pcbdata.core.rng import Stream, check_seed
@@ -17,6 +18,14 @@ from pcbdata.generators import footprints as fp
 from pcbdata.generators.base import MAX_LENGTH_MM, Instance, board_id
 from pcbdata.generators.d2r_layout import Outline, Placer, make_outline
 from pcbdata.generators.d2r_params import D2RParams
+from pcbdata.generators.d2r_parts import (
+    PartDrawer,
+    Style,
+    joinable_pins,
+    pins,
+    pins_to_ask,
+    weighted,
+)
 from pcbdata.model.board import Board, NetClass, Part, PartPad, Rules, mm_to_nm
 
 __all__ = ["D2RGenerator", "D2RParams"]
@@ -32,25 +41,10 @@ _REF_PREFIX = {"sot23": "Q", "soic": "U", "tssop": "U", "dip": "U", "qfn": "U", 
                "header": "J", "connector": "J", "axial": "R", "radial": "C"}
 
 
-@dataclass(frozen=True)
-class _Style:
-    """One board's leaning: its part mix, passive sizes and how far it leans to SMD parts (0:
-    through-hole only, 1: SMD only)."""
-
-    part_mix: dict[str, float]
-    passive_sizes: dict[str, float]
-    smd_lean: float = 0.5
-
-
 def _normal(stream: Stream) -> float:
     """A standard normal draw (Box-Muller) from two uniform draws."""
     u1, u2 = stream.random(), stream.random()
     return math.sqrt(-2.0 * math.log(1.0 - u1)) * math.cos(2.0 * math.pi * u2)
-
-
-def _weighted(stream: Stream, table: dict[str, float]) -> str:
-    keys = sorted(table)
-    return stream.weighted(keys, [table[k] for k in keys])
 
 
 class D2RGenerator:
@@ -67,6 +61,7 @@ class D2RGenerator:
     def __init__(self, params: D2RParams | None = None):
         self.params = params or D2RParams()
         p = self.params
+        self.parts = PartDrawer(p)
         self.rules = Rules(clearance=mm_to_nm(p.clearance_mm),
                            track_width=mm_to_nm(p.track_width_mm),
                            edge_clearance=mm_to_nm(p.edge_clearance_mm),
@@ -80,8 +75,8 @@ class D2RGenerator:
         layers = 4 if stream.random() < p.four_layer_fraction else 2
         count = self._component_count(stream)
         mix, smd_lean = self._board_mix(stream)
-        style = _Style(mix, self._board_passives(stream), smd_lean)
-        templates = [self._template(stream, style) for _ in range(count)]
+        style = Style(mix, self._board_passives(stream), smd_lean)
+        templates = [self.parts.from_mix(stream, style) for _ in range(count)]
         pad_target = self._pad_target(stream, count)
         self._top_up(stream, style, templates, pad_target)
         sides = ["B" if not t.through_hole and stream.random() < p.back_side_fraction else "F"
@@ -141,62 +136,44 @@ class D2RGenerator:
         """The passive sizes of one board: designers keep to one size, so one drawn size takes
         `passive_size_consistency` of the weight."""
         p = self.params
-        main = _weighted(stream, p.passive_sizes)
+        main = weighted(stream, p.passive_sizes)
         keep = p.passive_size_consistency
         return {k: (1 - keep) * w + (keep if k == main else 0.0)
                 for k, w in p.passive_sizes.items()}
 
-    def _top_up(self, stream: Stream, style: _Style, templates: list[fp.Template],
+    def _top_up(self, stream: Stream, style: Style, templates: list[fp.Template],
                 target: int) -> None:
         """More parts while their pins cannot give the target of terminal pads (a board of
-        three passives has six pins), within `components_range`."""
+        three passives has six pins), within `components_range`; with `top_up_by_pins`, by
+        `_top_up_by_pins` instead."""
         p = self.params
         wanted = target * 1.1  # a little slack: not every pin can join a net
-        pins = sum(len(t.pads) for t in templates)
-        while pins < wanted and len(templates) < p.components_range[1]:
-            templates.append(self._template(stream, style))
-            pins += len(templates[-1].pads)
+        if p.top_up_by_pins:
+            self._top_up_by_pins(stream, style, templates, wanted)
+            return
+        pad_count = sum(len(t.pads) for t in templates)
+        while pad_count < wanted and len(templates) < p.components_range[1]:
+            templates.append(self.parts.from_mix(stream, style))
+            pad_count += len(templates[-1].pads)
 
-    def _template(self, stream: Stream, style: _Style) -> fp.Template:
+    def _top_up_by_pins(self, stream: Stream, style: Style, templates: list[fp.Template],
+                        wanted: float) -> None:
+        """More parts while the pins nets can join (`joinable_pins`) are fewer than `wanted`;
+        a share `top_up_by_pins` of them drawn by pin count (`pins_to_ask`), the others from
+        the board's mix. Real small boards reach their pad count with a large connector or IC,
+        not with many two-pin parts."""
         p = self.params
-        kind = _weighted(stream, style.part_mix)
-        if kind == "passive":
-            return fp.passive(_weighted(stream, style.passive_sizes))
-        if kind == "axial":
-            return fp.axial(stream.choice(fp.AXIAL_PITCHES))
-        if kind == "radial":
-            return fp.radial(stream.choice(p.radial_pitches_mm))
-        if kind == "dip":
-            return fp.dip(stream.choice((8, 14, 16, 20, 28)))
-        if kind == "sot23":
-            return fp.sot23()
-        if kind == "soic":
-            return fp.soic(stream.choice((8, 14, 16)))
-        if kind == "tssop":
-            return fp.tssop(stream.choice((8, 14, 16, 20, 24)))
-        if kind == "qfn":
-            return fp.qfn(stream.choice((4, 5, 6, 8)), stream.choice(p.qfn_pitches_mm),
-                          stream.random() < p.exposed_pad_fraction)
-        if kind == "qfp":
-            return fp.qfp(stream.choice((8, 11, 12, 16)), stream.choice(p.qfp_pitches_mm))
-        if kind == "header":
-            rows = 2 if stream.random() < p.two_row_header_fraction else 1
-            low, high = p.header_pins
-            pins = low + stream.integer(high - low + 1)
-            return fp.pin_header(rows, max(1, pins // rows))
-        return self._connector(stream)
-
-    @staticmethod
-    def _connector(stream: Stream) -> fp.Template:
-        which = stream.integer(3)
-        if which == 0:
-            return fp.jst_ph(2 + stream.integer(5))
-        if which == 1:
-            return fp.jst_sh(2 + stream.integer(7))
-        return fp.terminal_block(2 + stream.integer(3))
+        counts = [pins(t) for t in templates]
+        while joinable_pins(counts) < wanted and len(templates) < p.components_range[1]:
+            if stream.random() < p.top_up_by_pins:
+                template = self.parts.by_pins(stream, style, pins_to_ask(counts, wanted))
+            else:
+                template = self.parts.from_mix(stream, style)
+            templates.append(template)
+            counts.append(pins(template))
 
     def _board_size(self, stream: Stream, templates: list[fp.Template], sides: list[str],
-                    style: _Style) -> tuple[float, float]:
+                    style: Style) -> tuple[float, float]:
         """Width and height (nm) from the courtyard area the busier side must hold."""
         p = self.params
         load = {"F": 0.0, "B": 0.0}
@@ -214,7 +191,7 @@ class D2RGenerator:
         height = max(area / width, widest)
         return (width, height) if stream.random() < 0.5 else (height, width)
 
-    def _fill(self, stream: Stream, style: _Style) -> float:
+    def _fill(self, stream: Stream, style: Style) -> float:
         """The board's fill, log-uniform in `fill_range` (real boards span a decade of
         densities), pulled towards the range's top by the board's SMD lean as far as
         `fill_style_coupling` says: dense real boards are SMD boards."""
@@ -226,10 +203,10 @@ class D2RGenerator:
         return math.exp(drawn)
 
     def _layout(self, stream: Stream, templates: list[fp.Template], sides: list[str],
-                holes: int, style: _Style, label: str) -> tuple[Outline, list[Part]]:
+                holes: int, style: Style, label: str) -> tuple[Outline, list[Part]]:
         p = self.params
         width, height = self._board_size(stream, templates, sides, style)
-        shape = _weighted(stream, p.outline_mix)
+        shape = weighted(stream, p.outline_mix)
         # Big parts first: small ones fill the gaps left between them.
         order = sorted(range(len(templates)), key=lambda i: (
             -templates[i].courtyard[0] * templates[i].courtyard[1], i))

@@ -21,7 +21,7 @@ _PROBABILITY_TABLES = ("part_mix", "passive_sizes", "outline_mix", "signal_net_s
 _FRACTIONS = ("passive_size_consistency", "back_side_fraction",
               "four_layer_fraction", "exposed_pad_fraction", "mounting_hole_fraction",
               "decoupling_fraction", "connected_fraction", "two_row_header_fraction",
-              "fill_style_coupling")
+              "fill_style_coupling", "top_up_by_pins")
 _CLASS_LENGTHS = ("clearance_mm", "track_width_mm", "via_diameter_mm", "via_drill_mm")
 
 
@@ -41,6 +41,7 @@ class D2RParams(GeneratorParams):
         "tssop": 0.008, "dip": 0.07, "qfn": 0.005, "qfp": 0.004, "header": 0.16,
         "connector": 0.08})
     style_spread: float = 1.0
+    top_up_by_pins: float = 0.0
     passive_sizes: dict[str, float] = field(default_factory=lambda: {
         "0402": 0.15, "0603": 0.35, "0805": 0.3, "1206": 0.2})
     passive_size_consistency: float = 0.8
