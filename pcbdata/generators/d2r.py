@@ -2,7 +2,8 @@
 
 Multi-pad parts from a parametric footprint library (`footprints`, drawn by `d2r_parts`),
 placed on both sides at 0, 90, 180 or 270 degrees with disjoint courtyards, inside rectangular
-or shaped outlines with mounting holes (`d2r_layout`); power nets touching many pins, signal
+or shaped outlines with mounting holes, or packed together and the outline cut around them
+(`d2r_layout`); power nets touching many pins, signal
 nets joining pins of nearby parts, unconnected pins; a `Power` net class with its own
 clearance, track and via, enforced by the project and by a rule in the board's `.kicad_dru`;
 2 or 4 copper layers.
@@ -16,7 +17,17 @@ from pcbdata.core.errors import GenerationError
 from pcbdata.core.rng import Stream, check_seed
 from pcbdata.generators import footprints as fp
 from pcbdata.generators.base import MAX_LENGTH_MM, Instance, board_id
-from pcbdata.generators.d2r_layout import Outline, Placer, make_outline
+from pcbdata.generators.d2r_layout import (
+    Outline,
+    Packer,
+    Placer,
+    Rect,
+    bounds,
+    footprint_box,
+    make_outline,
+    outline_length,
+    round_to,
+)
 from pcbdata.generators.d2r_params import D2RParams
 from pcbdata.generators.d2r_parts import (
     PartDrawer,
@@ -34,6 +45,8 @@ _ATTEMPTS_PER_PART = 150
 _GROWTH = 1.05  # a board whose parts do not fit is redrawn this much larger
 _RESTARTS = 40
 _TARGET_REDRAWS = 20
+_SHAPE_ATTEMPTS = 8  # a packed board's outline: draws of its shape before a rectangle
+_HOLE_MARGIN_STEP_MM = 0.5  # a packed board's margin grows by this until its holes fit
 _RAILS = ("+3V3", "+5V", "+1V8", "+12V")
 _THT_STYLE = ("axial", "radial", "dip")
 _SMD_STYLE = ("passive", "sot23", "soic", "tssop", "qfn", "qfp")
@@ -173,15 +186,15 @@ class D2RGenerator:
             counts.append(pins(template))
 
     def _board_size(self, stream: Stream, templates: list[fp.Template], sides: list[str],
-                    style: Style) -> tuple[float, float]:
-        """Width and height (nm) from the courtyard area the busier side must hold."""
+                    fill: float) -> tuple[float, float]:
+        """Width and height (nm) from the courtyard area the busier side must hold at `fill`."""
         p = self.params
         load = {"F": 0.0, "B": 0.0}
         for template, side in zip(templates, sides):
             area = 4.0 * template.courtyard[0] * template.courtyard[1]
             for s in (("F", "B") if template.through_hole else (side,)):
                 load[s] += area
-        area = max(load.values()) / self._fill(stream, style)
+        area = max(load.values()) / fill
         aspect = stream.uniform(*p.aspect_range)
         # The longest part must fit one way and the widest the other (parts turn).
         margin = 2 * mm_to_nm(p.edge_clearance_mm)
@@ -202,14 +215,28 @@ class D2RGenerator:
             drawn = (1 - coupling) * drawn + coupling * (low + style.smd_lean * (high - low))
         return math.exp(drawn)
 
+    def _packs(self, fill: float) -> bool:
+        """Whether a board of this fill is packed: its fill lies in the top `packed_fraction`
+        of `fill_range` (log scale). Those are the boards meant to be the densest, which random
+        spots cannot make (they cover at most about two thirds of a board); with
+        `fill_style_coupling` they are mostly SMD boards, as the densest real ones."""
+        share = self.params.packed_fraction
+        if not share:
+            return False
+        low, high = (math.log(v) for v in self.params.fill_range)
+        return math.log(fill) >= high - share * (high - low)
+
     def _layout(self, stream: Stream, templates: list[fp.Template], sides: list[str],
                 holes: int, style: Style, label: str) -> tuple[Outline, list[Part]]:
         p = self.params
-        width, height = self._board_size(stream, templates, sides, style)
-        shape = weighted(stream, p.outline_mix)
         # Big parts first: small ones fill the gaps left between them.
         order = sorted(range(len(templates)), key=lambda i: (
             -templates[i].courtyard[0] * templates[i].courtyard[1], i))
+        fill = self._fill(stream, style)
+        if self._packs(fill):
+            return self._packed_layout(stream, templates, sides, holes, order)
+        width, height = self._board_size(stream, templates, sides, fill)
+        shape = weighted(stream, p.outline_mix)
         for _ in range(_RESTARTS):
             if max(width, height) > mm_to_nm(MAX_LENGTH_MM):
                 break  # KiCad holds coordinates to about 2 m; boards stay within 1 m
@@ -236,15 +263,97 @@ class D2RGenerator:
         counters: dict[str, int] = {}
         placed: dict[int, Part] = {}
         for i in order:
-            template = templates[i]
-            prefix = _REF_PREFIX.get(template.kind) or ("R" if stream.random() < 0.5 else "C")
-            counters[prefix] = counters.get(prefix, 0) + 1
-            part = placer.try_place(stream, template, sides[i], _ATTEMPTS_PER_PART,
-                                    f"{prefix}{counters[prefix]}", p.compactness)
+            part = placer.try_place(stream, templates[i], sides[i], _ATTEMPTS_PER_PART,
+                                    _reference(stream, templates[i], counters), p.compactness)
             if part is None:
                 return None
             placed[i] = part
         return parts + [placed[i] for i in range(len(templates))]
+
+    def _packed_layout(self, stream: Stream, templates: list[fp.Template], sides: list[str],
+                       holes: int, order: list[int]) -> tuple[Outline, list[Part]]:
+        """A board cut around its parts (`packed_fraction` of the boards): parts packed
+        together first (`Packer`), then the outline fitted around them `packed_margin_mm`
+        away. Real D3-A's densest boards are small breakouts cut around their parts; random
+        spots on a board sized beforehand leave half of it empty."""
+        p = self.params
+        shape = weighted(stream, p.outline_mix)
+        edge, grid = mm_to_nm(p.edge_clearance_mm), mm_to_nm(p.placement_grid_mm)
+        # At least the edge clearance plus a grid step (parts are centred on the grid).
+        margin = max(mm_to_nm(stream.uniform(*p.packed_margin_mm)), edge + grid)
+        packer = Packer(mm_to_nm(p.courtyard_gap_mm), grid, margin, p.aspect_range[1])
+        counters: dict[str, int] = {}
+        placed = {i: packer.place(stream, templates[i], sides[i],
+                                  _reference(stream, templates[i], counters)) for i in order}
+        parts = [placed[i] for i in range(len(templates))]
+        return self._fit_outline(stream, shape, parts, bounds(packer.placed), margin, holes)
+
+    def _fit_outline(self, stream: Stream, shape: str, parts: list[Part], box: Rect,
+                     margin: int, holes: int) -> tuple[Outline, list[Part]]:
+        """An outline of `shape` around the packed parts (`box`: their courtyards' bounding
+        box), `margin` away from it, its rounded or chamfered corners no larger than the margin
+        leaves room for (`_corner_range`). A drawn shape that would cut into a part (an
+        L-shape's or a notch's cut-out) is drawn again, and after `_SHAPE_ATTEMPTS` the board
+        is a rectangle; a board with mounting holes grows its margin in steps until the holes
+        fit its corners (on a rectangle they surely do at `roomy`)."""
+        p = self.params
+        edge, gap = mm_to_nm(p.edge_clearance_mm), mm_to_nm(p.courtyard_gap_mm)
+        grid = mm_to_nm(p.placement_grid_mm)
+        hole = fp.mounting_hole(p.mounting_hole_drill_mm)
+        roomy = edge + 2 * max(hole.courtyard) + gap + grid
+        margins = [margin]
+        while holes and margins[-1] < roomy + mm_to_nm(p.corner_mm[0]):
+            margins.append(margins[-1] + mm_to_nm(_HOLE_MARGIN_STEP_MM))
+        for m in margins:
+            # With holes, a corner must also leave room for a hole between it and the parts.
+            corners = self._corner_range(m - (roomy - edge - grid if holes else 0))
+            for attempt in range(_SHAPE_ATTEMPTS):
+                drawn = shape if attempt < _SHAPE_ATTEMPTS - 1 else "rect"
+                outline = make_outline(stream, drawn, outline_length(box[2] - box[0] + 2 * m),
+                                       outline_length(box[3] - box[1] + 2 * m), corners)
+                shift = (round_to((outline.width - box[2] - box[0]) / 2, grid),
+                         round_to((outline.height - box[3] - box[1]) / 2, grid))
+                fitted = self._fitted(outline, parts, shift, holes, hole)
+                if fitted is not None:
+                    return outline, fitted
+        raise AssertionError("a rectangle with room for the holes always fits")  # pragma: no cover
+
+    def _corner_range(self, room: int) -> tuple[float, float]:
+        """`corner_mm`, capped to the corner that clears a part in the corner of the parts'
+        box when `room` (nm) lies between that box and the outline (less the edge clearance
+        and a grid step: parts are centred on the grid), on the outline's 0.1 mm grid."""
+        p = self.params
+        cap = (room - mm_to_nm(p.edge_clearance_mm) - mm_to_nm(p.placement_grid_mm)) // 100_000
+        cap_mm = max(0.1, cap / 10)
+        low, high = p.corner_mm
+        return min(low, cap_mm), min(high, cap_mm)
+
+    def _fitted(self, outline: Outline, parts: list[Part], shift: tuple[int, int],
+                holes: int, hole: fp.Template) -> list[Part] | None:
+        """The parts moved by `shift` and the mounting holes in `outline`'s corners, if every
+        courtyard keeps its edge clearance and the holes all fit; else None."""
+        p = self.params
+        placer = Placer(outline, mm_to_nm(p.edge_clearance_mm), mm_to_nm(p.courtyard_gap_mm),
+                        mm_to_nm(p.placement_grid_mm))
+        moved = [replace(part, x=part.x + shift[0], y=part.y + shift[1]) for part in parts]
+        for part in moved:
+            box = footprint_box(part.x, part.y, part.courtyard, part.rotation)
+            sides = ("F", "B") if part.through_hole else (part.side,)
+            if not placer.fits(box, sides):
+                return None
+            placer.add(box, sides)
+        placed_holes = [placer.place_hole(hole, corner, f"H{corner + 1}")
+                        for corner in range(holes)]
+        if any(h is None for h in placed_holes):
+            return None
+        return [h for h in placed_holes if h is not None] + moved
+
+
+def _reference(stream: Stream, template: fp.Template, counters: dict[str, int]) -> str:
+    """The next reference of the template's kind (a passive is an R or a C by one draw)."""
+    prefix = _REF_PREFIX.get(template.kind) or ("R" if stream.random() < 0.5 else "C")
+    counters[prefix] = counters.get(prefix, 0) + 1
+    return f"{prefix}{counters[prefix]}"
 
 
 def _has_net(parts: list[Part], net: str) -> bool:

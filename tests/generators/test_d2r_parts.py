@@ -111,7 +111,8 @@ def test_small_boards_come_with_large_parts_when_topped_up_by_pin_count():
 # still give the same bytes (the draws of the other parts did not move).
 LEVEL_A_3_0_0 = {
     "components_median": 5.5, "components_sigma": 0.65, "pads_per_component_median": 3.4,
-    "pads_per_component_sigma": 0.25, "top_up_by_pins": 0.0,
+    "pads_per_component_sigma": 0.25, "top_up_by_pins": 0.0, "packed_fraction": 0.0,
+    "fill_range": [0.07, 2.0], "fill_style_coupling": 0.7,
     "part_mix": {"passive": 0.22, "axial": 0.17, "radial": 0.15, "sot23": 0.05, "soic": 0.05,
                  "tssop": 0.0, "dip": 0.08, "qfn": 0.0, "qfp": 0.0, "header": 0.18,
                  "connector": 0.10}}
