@@ -1,22 +1,42 @@
 """D2R: realistic synthetic boards, calibrated to the D3 tiers (SPEC section 2b).
 
-Multi-pad parts from a parametric footprint library (`footprints`), placed on both sides at 0,
-90, 180 or 270 degrees with disjoint courtyards, inside rectangular or shaped outlines with
-mounting holes (`d2r_layout`); power nets touching many pins, signal nets joining pins of
-nearby parts, unconnected pins; a `Power` net class with its own clearance, track and via,
-enforced by the project and by a rule in the board's `.kicad_dru`; 2 or 4 copper layers.
+Multi-pad parts from a parametric footprint library (`footprints`, drawn by `d2r_parts`),
+placed on both sides at 0, 90, 180 or 270 degrees with disjoint courtyards, inside rectangular
+or shaped outlines with mounting holes, or packed together and the outline cut around them
+(`d2r_layout`); power nets touching many pins, signal
+nets joining pins of nearby parts, unconnected pins; a `Power` net class with its own
+clearance, track and via, enforced by the project and by a rule in the board's `.kicad_dru`;
+2 or 4 copper layers.
 """
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 from pcbdata.core.errors import GenerationError
 from pcbdata.core.rng import Stream, check_seed
 from pcbdata.generators import footprints as fp
 from pcbdata.generators.base import MAX_LENGTH_MM, Instance, board_id
-from pcbdata.generators.d2r_layout import Outline, Placer, make_outline
+from pcbdata.generators.d2r_layout import (
+    Outline,
+    Packer,
+    Placer,
+    Rect,
+    bounds,
+    footprint_box,
+    make_outline,
+    outline_length,
+    round_to,
+)
 from pcbdata.generators.d2r_params import D2RParams
+from pcbdata.generators.d2r_parts import (
+    PartDrawer,
+    Style,
+    joinable_pins,
+    pins,
+    pins_to_ask,
+    weighted,
+)
 from pcbdata.model.board import Board, NetClass, Part, PartPad, Rules, mm_to_nm
 
 __all__ = ["D2RGenerator", "D2RParams"]
@@ -25,6 +45,8 @@ _ATTEMPTS_PER_PART = 150
 _GROWTH = 1.05  # a board whose parts do not fit is redrawn this much larger
 _RESTARTS = 40
 _TARGET_REDRAWS = 20
+_SHAPE_ATTEMPTS = 8  # a packed board's outline: draws of its shape before a rectangle
+_HOLE_MARGIN_STEP_MM = 0.5  # a packed board's margin grows by this until its holes fit
 _RAILS = ("+3V3", "+5V", "+1V8", "+12V")
 _THT_STYLE = ("axial", "radial", "dip")
 _SMD_STYLE = ("passive", "sot23", "soic", "tssop", "qfn", "qfp")
@@ -32,25 +54,10 @@ _REF_PREFIX = {"sot23": "Q", "soic": "U", "tssop": "U", "dip": "U", "qfn": "U", 
                "header": "J", "connector": "J", "axial": "R", "radial": "C"}
 
 
-@dataclass(frozen=True)
-class _Style:
-    """One board's leaning: its part mix, passive sizes and how far it leans to SMD parts (0:
-    through-hole only, 1: SMD only)."""
-
-    part_mix: dict[str, float]
-    passive_sizes: dict[str, float]
-    smd_lean: float = 0.5
-
-
 def _normal(stream: Stream) -> float:
     """A standard normal draw (Box-Muller) from two uniform draws."""
     u1, u2 = stream.random(), stream.random()
     return math.sqrt(-2.0 * math.log(1.0 - u1)) * math.cos(2.0 * math.pi * u2)
-
-
-def _weighted(stream: Stream, table: dict[str, float]) -> str:
-    keys = sorted(table)
-    return stream.weighted(keys, [table[k] for k in keys])
 
 
 class D2RGenerator:
@@ -67,6 +74,7 @@ class D2RGenerator:
     def __init__(self, params: D2RParams | None = None):
         self.params = params or D2RParams()
         p = self.params
+        self.parts = PartDrawer(p)
         self.rules = Rules(clearance=mm_to_nm(p.clearance_mm),
                            track_width=mm_to_nm(p.track_width_mm),
                            edge_clearance=mm_to_nm(p.edge_clearance_mm),
@@ -80,8 +88,8 @@ class D2RGenerator:
         layers = 4 if stream.random() < p.four_layer_fraction else 2
         count = self._component_count(stream)
         mix, smd_lean = self._board_mix(stream)
-        style = _Style(mix, self._board_passives(stream), smd_lean)
-        templates = [self._template(stream, style) for _ in range(count)]
+        style = Style(mix, self._board_passives(stream), smd_lean)
+        templates = [self.parts.from_mix(stream, style) for _ in range(count)]
         pad_target = self._pad_target(stream, count)
         self._top_up(stream, style, templates, pad_target)
         sides = ["B" if not t.through_hole and stream.random() < p.back_side_fraction else "F"
@@ -141,70 +149,52 @@ class D2RGenerator:
         """The passive sizes of one board: designers keep to one size, so one drawn size takes
         `passive_size_consistency` of the weight."""
         p = self.params
-        main = _weighted(stream, p.passive_sizes)
+        main = weighted(stream, p.passive_sizes)
         keep = p.passive_size_consistency
         return {k: (1 - keep) * w + (keep if k == main else 0.0)
                 for k, w in p.passive_sizes.items()}
 
-    def _top_up(self, stream: Stream, style: _Style, templates: list[fp.Template],
+    def _top_up(self, stream: Stream, style: Style, templates: list[fp.Template],
                 target: int) -> None:
         """More parts while their pins cannot give the target of terminal pads (a board of
-        three passives has six pins), within `components_range`."""
+        three passives has six pins), within `components_range`; with `top_up_by_pins`, by
+        `_top_up_by_pins` instead."""
         p = self.params
         wanted = target * 1.1  # a little slack: not every pin can join a net
-        pins = sum(len(t.pads) for t in templates)
-        while pins < wanted and len(templates) < p.components_range[1]:
-            templates.append(self._template(stream, style))
-            pins += len(templates[-1].pads)
+        if p.top_up_by_pins:
+            self._top_up_by_pins(stream, style, templates, wanted)
+            return
+        pad_count = sum(len(t.pads) for t in templates)
+        while pad_count < wanted and len(templates) < p.components_range[1]:
+            templates.append(self.parts.from_mix(stream, style))
+            pad_count += len(templates[-1].pads)
 
-    def _template(self, stream: Stream, style: _Style) -> fp.Template:
+    def _top_up_by_pins(self, stream: Stream, style: Style, templates: list[fp.Template],
+                        wanted: float) -> None:
+        """More parts while the pins nets can join (`joinable_pins`) are fewer than `wanted`;
+        a share `top_up_by_pins` of them drawn by pin count (`pins_to_ask`), the others from
+        the board's mix. Real small boards reach their pad count with a large connector or IC,
+        not with many two-pin parts."""
         p = self.params
-        kind = _weighted(stream, style.part_mix)
-        if kind == "passive":
-            return fp.passive(_weighted(stream, style.passive_sizes))
-        if kind == "axial":
-            return fp.axial(stream.choice(fp.AXIAL_PITCHES))
-        if kind == "radial":
-            return fp.radial(stream.choice(p.radial_pitches_mm))
-        if kind == "dip":
-            return fp.dip(stream.choice((8, 14, 16, 20, 28)))
-        if kind == "sot23":
-            return fp.sot23()
-        if kind == "soic":
-            return fp.soic(stream.choice((8, 14, 16)))
-        if kind == "tssop":
-            return fp.tssop(stream.choice((8, 14, 16, 20, 24)))
-        if kind == "qfn":
-            return fp.qfn(stream.choice((4, 5, 6, 8)), stream.choice(p.qfn_pitches_mm),
-                          stream.random() < p.exposed_pad_fraction)
-        if kind == "qfp":
-            return fp.qfp(stream.choice((8, 11, 12, 16)), stream.choice(p.qfp_pitches_mm))
-        if kind == "header":
-            rows = 2 if stream.random() < p.two_row_header_fraction else 1
-            low, high = p.header_pins
-            pins = low + stream.integer(high - low + 1)
-            return fp.pin_header(rows, max(1, pins // rows))
-        return self._connector(stream)
-
-    @staticmethod
-    def _connector(stream: Stream) -> fp.Template:
-        which = stream.integer(3)
-        if which == 0:
-            return fp.jst_ph(2 + stream.integer(5))
-        if which == 1:
-            return fp.jst_sh(2 + stream.integer(7))
-        return fp.terminal_block(2 + stream.integer(3))
+        counts = [pins(t) for t in templates]
+        while joinable_pins(counts) < wanted and len(templates) < p.components_range[1]:
+            if stream.random() < p.top_up_by_pins:
+                template = self.parts.by_pins(stream, style, pins_to_ask(counts, wanted))
+            else:
+                template = self.parts.from_mix(stream, style)
+            templates.append(template)
+            counts.append(pins(template))
 
     def _board_size(self, stream: Stream, templates: list[fp.Template], sides: list[str],
-                    style: _Style) -> tuple[float, float]:
-        """Width and height (nm) from the courtyard area the busier side must hold."""
+                    fill: float) -> tuple[float, float]:
+        """Width and height (nm) from the courtyard area the busier side must hold at `fill`."""
         p = self.params
         load = {"F": 0.0, "B": 0.0}
         for template, side in zip(templates, sides):
             area = 4.0 * template.courtyard[0] * template.courtyard[1]
             for s in (("F", "B") if template.through_hole else (side,)):
                 load[s] += area
-        area = max(load.values()) / self._fill(stream, style)
+        area = max(load.values()) / fill
         aspect = stream.uniform(*p.aspect_range)
         # The longest part must fit one way and the widest the other (parts turn).
         margin = 2 * mm_to_nm(p.edge_clearance_mm)
@@ -214,7 +204,7 @@ class D2RGenerator:
         height = max(area / width, widest)
         return (width, height) if stream.random() < 0.5 else (height, width)
 
-    def _fill(self, stream: Stream, style: _Style) -> float:
+    def _fill(self, stream: Stream, style: Style) -> float:
         """The board's fill, log-uniform in `fill_range` (real boards span a decade of
         densities), pulled towards the range's top by the board's SMD lean as far as
         `fill_style_coupling` says: dense real boards are SMD boards."""
@@ -225,14 +215,28 @@ class D2RGenerator:
             drawn = (1 - coupling) * drawn + coupling * (low + style.smd_lean * (high - low))
         return math.exp(drawn)
 
+    def _packs(self, fill: float) -> bool:
+        """Whether a board of this fill is packed: its fill lies in the top `packed_fraction`
+        of `fill_range` (log scale). Those are the boards meant to be the densest, which random
+        spots cannot make (they cover at most about two thirds of a board); with
+        `fill_style_coupling` they are mostly SMD boards, as the densest real ones."""
+        share = self.params.packed_fraction
+        if not share:
+            return False
+        low, high = (math.log(v) for v in self.params.fill_range)
+        return math.log(fill) >= high - share * (high - low)
+
     def _layout(self, stream: Stream, templates: list[fp.Template], sides: list[str],
-                holes: int, style: _Style, label: str) -> tuple[Outline, list[Part]]:
+                holes: int, style: Style, label: str) -> tuple[Outline, list[Part]]:
         p = self.params
-        width, height = self._board_size(stream, templates, sides, style)
-        shape = _weighted(stream, p.outline_mix)
         # Big parts first: small ones fill the gaps left between them.
         order = sorted(range(len(templates)), key=lambda i: (
             -templates[i].courtyard[0] * templates[i].courtyard[1], i))
+        fill = self._fill(stream, style)
+        if self._packs(fill):
+            return self._packed_layout(stream, templates, sides, holes, order)
+        width, height = self._board_size(stream, templates, sides, fill)
+        shape = weighted(stream, p.outline_mix)
         for _ in range(_RESTARTS):
             if max(width, height) > mm_to_nm(MAX_LENGTH_MM):
                 break  # KiCad holds coordinates to about 2 m; boards stay within 1 m
@@ -259,15 +263,97 @@ class D2RGenerator:
         counters: dict[str, int] = {}
         placed: dict[int, Part] = {}
         for i in order:
-            template = templates[i]
-            prefix = _REF_PREFIX.get(template.kind) or ("R" if stream.random() < 0.5 else "C")
-            counters[prefix] = counters.get(prefix, 0) + 1
-            part = placer.try_place(stream, template, sides[i], _ATTEMPTS_PER_PART,
-                                    f"{prefix}{counters[prefix]}", p.compactness)
+            part = placer.try_place(stream, templates[i], sides[i], _ATTEMPTS_PER_PART,
+                                    _reference(stream, templates[i], counters), p.compactness)
             if part is None:
                 return None
             placed[i] = part
         return parts + [placed[i] for i in range(len(templates))]
+
+    def _packed_layout(self, stream: Stream, templates: list[fp.Template], sides: list[str],
+                       holes: int, order: list[int]) -> tuple[Outline, list[Part]]:
+        """A board cut around its parts (`packed_fraction` of the boards): parts packed
+        together first (`Packer`), then the outline fitted around them `packed_margin_mm`
+        away. Real D3-A's densest boards are small breakouts cut around their parts; random
+        spots on a board sized beforehand leave half of it empty."""
+        p = self.params
+        shape = weighted(stream, p.outline_mix)
+        edge, grid = mm_to_nm(p.edge_clearance_mm), mm_to_nm(p.placement_grid_mm)
+        # At least the edge clearance plus a grid step (parts are centred on the grid).
+        margin = max(mm_to_nm(stream.uniform(*p.packed_margin_mm)), edge + grid)
+        packer = Packer(mm_to_nm(p.courtyard_gap_mm), grid, margin, p.aspect_range[1])
+        counters: dict[str, int] = {}
+        placed = {i: packer.place(stream, templates[i], sides[i],
+                                  _reference(stream, templates[i], counters)) for i in order}
+        parts = [placed[i] for i in range(len(templates))]
+        return self._fit_outline(stream, shape, parts, bounds(packer.placed), margin, holes)
+
+    def _fit_outline(self, stream: Stream, shape: str, parts: list[Part], box: Rect,
+                     margin: int, holes: int) -> tuple[Outline, list[Part]]:
+        """An outline of `shape` around the packed parts (`box`: their courtyards' bounding
+        box), `margin` away from it, its rounded or chamfered corners no larger than the margin
+        leaves room for (`_corner_range`). A drawn shape that would cut into a part (an
+        L-shape's or a notch's cut-out) is drawn again, and after `_SHAPE_ATTEMPTS` the board
+        is a rectangle; a board with mounting holes grows its margin in steps until the holes
+        fit its corners (on a rectangle they surely do at `roomy`)."""
+        p = self.params
+        edge, gap = mm_to_nm(p.edge_clearance_mm), mm_to_nm(p.courtyard_gap_mm)
+        grid = mm_to_nm(p.placement_grid_mm)
+        hole = fp.mounting_hole(p.mounting_hole_drill_mm)
+        roomy = edge + 2 * max(hole.courtyard) + gap + grid
+        margins = [margin]
+        while holes and margins[-1] < roomy + mm_to_nm(p.corner_mm[0]):
+            margins.append(margins[-1] + mm_to_nm(_HOLE_MARGIN_STEP_MM))
+        for m in margins:
+            # With holes, a corner must also leave room for a hole between it and the parts.
+            corners = self._corner_range(m - (roomy - edge - grid if holes else 0))
+            for attempt in range(_SHAPE_ATTEMPTS):
+                drawn = shape if attempt < _SHAPE_ATTEMPTS - 1 else "rect"
+                outline = make_outline(stream, drawn, outline_length(box[2] - box[0] + 2 * m),
+                                       outline_length(box[3] - box[1] + 2 * m), corners)
+                shift = (round_to((outline.width - box[2] - box[0]) / 2, grid),
+                         round_to((outline.height - box[3] - box[1]) / 2, grid))
+                fitted = self._fitted(outline, parts, shift, holes, hole)
+                if fitted is not None:
+                    return outline, fitted
+        raise AssertionError("a rectangle with room for the holes always fits")  # pragma: no cover
+
+    def _corner_range(self, room: int) -> tuple[float, float]:
+        """`corner_mm`, capped to the corner that clears a part in the corner of the parts'
+        box when `room` (nm) lies between that box and the outline (less the edge clearance
+        and a grid step: parts are centred on the grid), on the outline's 0.1 mm grid."""
+        p = self.params
+        cap = (room - mm_to_nm(p.edge_clearance_mm) - mm_to_nm(p.placement_grid_mm)) // 100_000
+        cap_mm = max(0.1, cap / 10)
+        low, high = p.corner_mm
+        return min(low, cap_mm), min(high, cap_mm)
+
+    def _fitted(self, outline: Outline, parts: list[Part], shift: tuple[int, int],
+                holes: int, hole: fp.Template) -> list[Part] | None:
+        """The parts moved by `shift` and the mounting holes in `outline`'s corners, if every
+        courtyard keeps its edge clearance and the holes all fit; else None."""
+        p = self.params
+        placer = Placer(outline, mm_to_nm(p.edge_clearance_mm), mm_to_nm(p.courtyard_gap_mm),
+                        mm_to_nm(p.placement_grid_mm))
+        moved = [replace(part, x=part.x + shift[0], y=part.y + shift[1]) for part in parts]
+        for part in moved:
+            box = footprint_box(part.x, part.y, part.courtyard, part.rotation)
+            sides = ("F", "B") if part.through_hole else (part.side,)
+            if not placer.fits(box, sides):
+                return None
+            placer.add(box, sides)
+        placed_holes = [placer.place_hole(hole, corner, f"H{corner + 1}")
+                        for corner in range(holes)]
+        if any(h is None for h in placed_holes):
+            return None
+        return [h for h in placed_holes if h is not None] + moved
+
+
+def _reference(stream: Stream, template: fp.Template, counters: dict[str, int]) -> str:
+    """The next reference of the template's kind (a passive is an R or a C by one draw)."""
+    prefix = _REF_PREFIX.get(template.kind) or ("R" if stream.random() < 0.5 else "C")
+    counters[prefix] = counters.get(prefix, 0) + 1
+    return f"{prefix}{counters[prefix]}"
 
 
 def _has_net(parts: list[Part], net: str) -> bool:

@@ -1,5 +1,6 @@
 """Outlines and placement of the realistic family (`d2r`): board shapes with the regions parts
-must keep out of, and courtyard-disjoint placement on both sides."""
+must keep out of, and courtyard-disjoint placement on both sides: at random spots of a board
+(`Placer`) or packed together before the board is cut around them (`Packer`)."""
 from __future__ import annotations
 
 import math
@@ -195,3 +196,119 @@ class Placer:
 def _corner_keepouts(outline: Outline) -> tuple[Rect, ...]:
     """Keepouts of rounded or chamfered corners (the four of them), else none."""
     return outline.keepouts if len(outline.keepouts) == 4 else ()
+
+
+def _ceil_to(value: float, step: int) -> int:
+    return -int(-value // step) * step
+
+
+def _floor_to(value: float, step: int) -> int:
+    return int(value // step) * step
+
+
+def round_to(value: float, step: int) -> int:
+    return int(round(value / step)) * step
+
+
+def outline_length(value: float) -> int:
+    """A length of an outline fitted around parts: up to the outline grid, never shorter."""
+    return max(_STEP, _ceil_to(value, _STEP))
+
+
+_CELL = 2_000_000  # nm: the packer's neighbourhood squares
+
+
+def _cells(box: Rect, reach: int) -> list[tuple[int, int]]:
+    """The `_CELL` squares that `box` grown by `reach` touches."""
+    xs = range((box[0] - reach) // _CELL, (box[2] + reach) // _CELL + 1)
+    ys = range((box[1] - reach) // _CELL, (box[3] + reach) // _CELL + 1)
+    return [(i, j) for i in xs for j in ys]
+
+
+def bounds(boxes: list[Rect]) -> Rect:
+    """The bounding box of `boxes` (at least one)."""
+    return (min(b[0] for b in boxes), min(b[1] for b in boxes),
+            max(b[2] for b in boxes), max(b[3] for b in boxes))
+
+
+class Packer:
+    """Places courtyards compactly, for a board cut around its parts afterwards: each part at
+    the free spot beside or under the parts already placed that keeps the outline to come
+    (their bounding box grown by `margin` on every side) smallest, counting a box longer than
+    `aspect` times its width as that much wider (a strip is no board); of those the spot
+    nearest the parts' centre. Free as for `Placer`: `gap` apart from the courtyards of its
+    side (a through-hole part occupies both sides), on a `grid`; there is no outline yet."""
+
+    def __init__(self, gap: int, grid: int, margin: int, aspect: float):
+        self.gap = gap
+        self.aspect = aspect
+        self.grid = grid
+        self.margin = margin
+        # Per side, the courtyards by the `_CELL` squares they come within `gap` of: a spot is
+        # checked against its neighbours only (most spots tried on a large board are taken).
+        self.cells: dict[str, dict[tuple[int, int], list[Rect]]] = {"F": {}, "B": {}}
+        self.placed: list[Rect] = []
+
+    def place(self, stream: Stream, template: Template, side: str, ref: str) -> Part:
+        """The part at the best free spot; its rotation drawn as `Placer`'s, or a quarter turn
+        more where that packs tighter (one draw: all four rotations stay equally likely)."""
+        sides = ("F", "B") if template.through_hole else (side,)
+        drawn = 90 * stream.integer(4)
+        before = bounds(self.placed) if self.placed else None
+        ranked: list[tuple[tuple[int, int], int, int, int, int, Rect]] = []
+        for rotation in (drawn, (drawn + 90) % 360):
+            for x, y in self._spots(template.courtyard, rotation):
+                box = footprint_box(x, y, template.courtyard, rotation)
+                ranked.append((self._score(box, before), len(ranked), x, y, rotation, box))
+        # Best first (ties: the first listed); only then is a spot checked for being free,
+        # so a large board checks few. The plane is unbounded: some spot is always free.
+        ranked.sort()
+        _, _, x, y, rotation, box = next(r for r in ranked if self._free(r[5], sides))
+        for s in sides:
+            for cell in _cells(box, self.gap):
+                self.cells[s].setdefault(cell, []).append(box)
+        self.placed.append(box)
+        return Part(ref=ref, name=template.name, x=x, y=y, pads=template.pads,
+                    courtyard=template.courtyard, rotation=rotation,
+                    side="F" if template.through_hole else side)  # type: ignore[arg-type]
+
+    def _spots(self, courtyard: tuple[int, int], rotation: int) -> list[tuple[int, int]]:
+        """Centres that put the courtyard against a placed one (its left, right, top or bottom,
+        aligned with one of its ends, its middle or an end of all parts' bounding box), or
+        right under it (the other side); the first part goes to the origin."""
+        if not self.placed:
+            return [(0, 0)]
+        half_w, half_h = courtyard if rotation % 180 == 0 else courtyard[::-1]
+        g, gap = self.grid, self.gap
+        all_box = bounds(self.placed)
+        spots: list[tuple[int, int]] = []
+        for a in self.placed:
+            ys = [round_to(v, g) for v in (a[1] + half_h, a[3] - half_h, (a[1] + a[3]) / 2,
+                                            all_box[1] + half_h, all_box[3] - half_h)]
+            xs = [round_to(v, g) for v in (a[0] + half_w, a[2] - half_w, (a[0] + a[2]) / 2,
+                                            all_box[0] + half_w, all_box[2] - half_w)]
+            right, left = _ceil_to(a[2] + gap + half_w, g), _floor_to(a[0] - gap - half_w, g)
+            below, above = _ceil_to(a[3] + gap + half_h, g), _floor_to(a[1] - gap - half_h, g)
+            spots += [(right, y) for y in ys] + [(left, y) for y in ys]
+            spots += [(x, below) for x in xs] + [(x, above) for x in xs]
+            spots.append((round_to((a[0] + a[2]) / 2, g), round_to((a[1] + a[3]) / 2, g)))
+        return spots
+
+    def _free(self, box: Rect, sides: tuple[str, ...]) -> bool:
+        return not any(_overlap(box, other, self.gap) for side in sides
+                       for cell in _cells(box, 0) for other in self.cells[side].get(cell, ()))
+
+    def _score(self, box: Rect, before: Rect | None) -> tuple[int, int]:
+        """(the outline's area with this box, counted as if its short side were at least the
+        long side over `aspect`: a strip is no board; the box's squared distance from the
+        centre of `before`, the parts' bounding box so far): smaller is better."""
+        if before is None:
+            return 0, 0
+        m = 2 * self.margin
+        width = max(before[2], box[2]) - min(before[0], box[0]) + m
+        height = max(before[3], box[3]) - min(before[1], box[1]) + m
+        long, short = (width, height) if width >= height else (height, width)
+        area = long * max(short, int(long / self.aspect))
+        dx = (box[0] + box[2]) - (before[0] + before[2])
+        dy = (box[1] + box[3]) - (before[1] + before[3])
+        return area, dx * dx + dy * dy

@@ -21,7 +21,7 @@ _PROBABILITY_TABLES = ("part_mix", "passive_sizes", "outline_mix", "signal_net_s
 _FRACTIONS = ("passive_size_consistency", "back_side_fraction",
               "four_layer_fraction", "exposed_pad_fraction", "mounting_hole_fraction",
               "decoupling_fraction", "connected_fraction", "two_row_header_fraction",
-              "fill_style_coupling")
+              "fill_style_coupling", "top_up_by_pins", "packed_fraction")
 _CLASS_LENGTHS = ("clearance_mm", "track_width_mm", "via_diameter_mm", "via_drill_mm")
 
 
@@ -41,6 +41,7 @@ class D2RParams(GeneratorParams):
         "tssop": 0.008, "dip": 0.07, "qfn": 0.005, "qfp": 0.004, "header": 0.16,
         "connector": 0.08})
     style_spread: float = 1.0
+    top_up_by_pins: float = 0.0
     passive_sizes: dict[str, float] = field(default_factory=lambda: {
         "0402": 0.15, "0603": 0.35, "0805": 0.3, "1206": 0.2})
     passive_size_consistency: float = 0.8
@@ -54,6 +55,8 @@ class D2RParams(GeneratorParams):
     four_layer_fraction: float = 0.02
     fill_range: tuple[float, float] = (0.1, 2.0)
     fill_style_coupling: float = 0.0
+    packed_fraction: float = 0.0
+    packed_margin_mm: tuple[float, float] = (0.5, 2.0)
     aspect_range: tuple[float, float] = (1.0, 1.8)
     outline_mix: dict[str, float] = field(default_factory=lambda: {
         "rect": 0.5, "rounded": 0.2, "chamfered": 0.1, "l_shape": 0.1, "notch": 0.1})
@@ -113,7 +116,8 @@ class D2RParams(GeneratorParams):
                 out.append(f"{name} must be in [0, 1], got {getattr(self, name)}")
         for name, lo_bound, hi_bound in (("pads_range", 2, 100_000), ("fill_range", 0.01, 2.0),
                                          ("aspect_range", 1.0, 5.0), ("corner_mm", 0.1, 20.0),
-                                         ("header_pins", 2, 40)):
+                                         ("header_pins", 2, 40),
+                                         ("packed_margin_mm", 0.0, 50.0)):
             lo, hi = getattr(self, name)
             if not lo_bound <= lo <= hi <= hi_bound:
                 out.append(f"{name} must be [low, high] with {lo_bound:g} <= low <= high <= "

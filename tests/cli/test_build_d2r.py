@@ -29,7 +29,9 @@ def test_build_writes_the_level_and_rebuilds_byte_identically(tmp_path, capsys):
     manifest = json.loads((tmp_path / "a" / "manifest.json").read_text())
     config = manifest["configs"]["d2r-a"]
     assert config["family"] == "d2r" and config["level"] == "a" and config["overrides"] == {}
-    assert config["parameters"]["components_median"] == 5.5
+    assert config["parameters"]["components_median"] == 4.6
+    assert config["parameters"]["top_up_by_pins"] == 1.0 and config["set_version"] == "4.0.0"
+    assert config["parameters"]["packed_fraction"] == 0.2
     assert "d2r=3" in config["seed_scheme"]
     board = config["splits"]["test"]["boards"]["board_00000"]
     assert sorted(board["files"]) == ["board.kicad_dru", "board.kicad_pcb", "board.kicad_pro"]

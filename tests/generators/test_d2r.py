@@ -221,6 +221,7 @@ def test_a_style_spread_above_one_makes_boards_of_one_style_only():
     ({"radial_pitches_mm": [1.0]}, "radial_pitches_mm must list pitches from 2 to 10 mm"),
     ({"fill_style_coupling": 1.5}, "fill_style_coupling must be in [0, 1]"),
     ({"style_spread": 2.5}, "style_spread must be from 0 to 2"),
+    ({"top_up_by_pins": 1.5}, "top_up_by_pins must be in [0, 1]"),
     ({"power_clearance_mm": 0.25}, "above the library's smallest gap"),
     ({"via_drill_mm": 0.8, "via_diameter_mm": 1.2, "power_via_drill_mm": 0.8,
       "power_via_diameter_mm": 1.2}, "above the library's smallest pad hole"),
