@@ -7,7 +7,6 @@ import math
 import statistics
 
 import pytest
-from shapely.geometry import Polygon, box
 
 from pcbdata.core.errors import UserError
 from pcbdata.core.rng import Stream
@@ -15,11 +14,12 @@ from pcbdata.core.tree import PROJECT_FILE, RULES_FILE
 from pcbdata.generators import D2RGenerator, D2RParams
 from pcbdata.generators.d2r import pad_position
 from pcbdata.kicad import DrcReport
-from pcbdata.model.board import Board, EdgeArc, Part
+from pcbdata.model.board import Board, EdgeArc
 from pcbdata.model.kicad_writer import board_files
 from pcbdata.spec.configs import d2r_config
 from pcbdata.spec.presets import d2r_level, d2r_levels
 from pcbdata.testing.sets import write_board
+from tests.generators.d2r_checks import assert_courtyards_apart, assert_inside_outline
 
 LEVELS = sorted(d2r_levels())
 # Every outline shape, mounting holes, four layers and a crowded back side on one level.
@@ -67,44 +67,12 @@ def test_same_seed_split_and_index_give_the_same_bytes():
         first.generate(8, "validation", 0).board)
 
 
-def _courtyard(part: Part):
-    half_w, half_h = part.courtyard if part.rotation % 180 == 0 else part.courtyard[::-1]
-    return box(part.x - half_w, part.y - half_h, part.x + half_w, part.y + half_h)
-
-
-def _outline(board: Board) -> Polygon:
-    """The outline as a polygon; arcs become chords, which lie inside the true outline, so a
-    shape inside this polygon is inside the board."""
-    if not board.outline:
-        return box(0, 0, board.width, board.height)
-    points = []
-    for edge in board.outline:
-        points.append((edge.x1, edge.y1))
-        if isinstance(edge, EdgeArc):
-            points.append((edge.xm, edge.ym))
-    return Polygon(points)
-
-
 def test_courtyards_never_overlap_on_one_side(boards):
-    for board in boards:
-        for side in ("F", "B"):
-            # A through-hole part or mounting hole occupies both sides.
-            rects = [_courtyard(p).bounds for p in board.parts if p.side == side or p.through_hole]
-            for i, a in enumerate(rects):
-                for b in rects[:i]:
-                    apart = a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
-                    assert apart, (board.uuid_seed, side, a, b)
+    assert_courtyards_apart(boards)
 
 
 def test_every_courtyard_and_pad_lies_inside_the_outline_with_edge_clearance(boards):
-    for board in boards:
-        inner = _outline(board).buffer(-board.rules.edge_clearance, join_style=2)
-        assert inner.is_valid and inner.area > 0
-        for part in board.parts:
-            assert inner.covers(_courtyard(part)), (board.uuid_seed, part.ref)
-            for pad in part.pads:
-                x, y = pad_position(part, pad)
-                assert inner.contains(box(x - 1, y - 1, x + 1, y + 1))
+    assert_inside_outline(boards)
 
 
 def test_rotations_sides_shapes_and_layers_all_occur(boards):

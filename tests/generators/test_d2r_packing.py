@@ -7,17 +7,16 @@ from __future__ import annotations
 import statistics
 
 import pytest
-from shapely.geometry import Polygon, box
 
 from pcbdata.core.hashing import sha256_text
 from pcbdata.core.rng import Stream
 from pcbdata.core.tree import BOARD_FILE
 from pcbdata.generators import footprints as fp
-from pcbdata.generators.d2r import pad_position
 from pcbdata.generators.d2r_layout import Packer, footprint_box
 from pcbdata.model.board import Board, EdgeArc, Part
 from pcbdata.model.kicad_writer import board_files
 from pcbdata.spec.configs import d2r_config
+from tests.generators.d2r_checks import assert_courtyards_apart, assert_inside_outline, outline
 
 PACKED = {"packed_fraction": 1.0}
 # Every outline shape, mounting holes on every board and a crowded back side, all packed.
@@ -42,41 +41,17 @@ def _courtyard(part: Part) -> tuple[int, int, int, int]:
     return footprint_box(part.x, part.y, part.courtyard, part.rotation)
 
 
-def _outline(board: Board) -> Polygon:
-    """The outline as a polygon; arcs become chords, which lie inside the true outline."""
-    if not board.outline:
-        return box(0, 0, board.width, board.height)
-    points = []
-    for edge in board.outline:
-        points.append((edge.x1, edge.y1))
-        if isinstance(edge, EdgeArc):
-            points.append((edge.xm, edge.ym))
-    return Polygon(points)
-
-
 def _density(board: Board) -> float:
     """Terminal pads per cm² of the outline."""
-    return board.n_pads / (_outline(board).area / CM2)
+    return board.n_pads / (outline(board).area / CM2)
 
 
 def test_packed_courtyards_never_overlap_on_one_side(packed):
-    for board in packed:
-        for side in ("F", "B"):
-            rects = [_courtyard(p) for p in board.parts if p.side == side or p.through_hole]
-            for i, a in enumerate(rects):
-                for b in rects[:i]:
-                    apart = a[2] <= b[0] or b[2] <= a[0] or a[3] <= b[1] or b[3] <= a[1]
-                    assert apart, (board.uuid_seed, side, a, b)
+    assert_courtyards_apart(packed)
 
 
 def test_packed_courtyards_and_pads_lie_inside_the_outline_with_edge_clearance(packed):
-    for board in packed:
-        inner = _outline(board).buffer(-board.rules.edge_clearance, join_style=2)
-        for part in board.parts:
-            assert inner.covers(box(*_courtyard(part))), (board.uuid_seed, part.ref)
-            for pad in part.pads:
-                x, y = pad_position(part, pad)
-                assert inner.contains(box(x - 1, y - 1, x + 1, y + 1))
+    assert_inside_outline(packed)
 
 
 def test_the_outline_is_cut_around_the_parts(packed):
@@ -111,7 +86,7 @@ def _cover(board: Board) -> float:
     for part in board.parts:
         for side in ("F", "B") if part.through_hole else (part.side,):
             load[side] += 4 * part.courtyard[0] * part.courtyard[1]
-    return max(load.values()) / _outline(board).area
+    return max(load.values()) / outline(board).area
 
 
 def test_small_packed_boards_reach_the_density_of_real_breakout_boards():
