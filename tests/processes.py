@@ -34,6 +34,20 @@ def marked_processes(marker: str) -> dict[int, str]:
     return found
 
 
+def running(pids: list[int]) -> list[int]:
+    """The pids among `pids` of processes still running: a zombie (dead, waiting for its parent,
+    e.g. Ray's raylet on a loaded machine, to reap it) holds nothing and does not count."""
+    out = []
+    for pid in pids:
+        try:
+            stat = Path(f"/proc/{pid}/stat").read_text()
+        except OSError:  # gone
+            continue
+        if stat.rsplit(")", 1)[1].split()[0] not in ("Z", "X"):
+            out.append(pid)
+    return out
+
+
 def wait_for(condition, seconds: float, step: float = 0.1):
     """Polls `condition()` until it returns something truthy or `seconds` pass; returns it."""
     deadline = time.monotonic() + seconds

@@ -4,14 +4,13 @@ boards of the same episodes run locally; a killed actor is one clear error; no a
 KiCad worker outlives its end."""
 from __future__ import annotations
 
-import os
 import re
 
 import pytest
 
 from pcbdata.agents.scripted import ScriptedAgent
 from tests.env.agents_for_tests import StopsEarly
-from tests.processes import wait_for
+from tests.processes import running, wait_for
 
 ENV_ID = "pcbdata/Route-d2-v2"
 EPISODES = [("board_00000", 0), ("board_00001", 0), ("board_00002", 1), (None, 3)]
@@ -23,7 +22,7 @@ def _agent(seed: int):
 
 
 def _alive(pids: list[int]) -> list[int]:
-    return [pid for pid in pids if os.path.exists(f"/proc/{pid}")]
+    return running(pids)
 
 
 def _processes(ray, actors) -> list[int]:
