@@ -4,6 +4,7 @@
         [--split train] [--limit N] [--md PATH] [--json PATH]
         [--difficulty --agent scripted-shove --boards 64 --workers 2]
     python bench/bench_realism.py --d3 D3_DIR --write-targets PATH
+    python bench/bench_realism.py --d3 D3_DIR --noise [--draws 1000] [--tier A]
 
 Both sides are measured from the board files (`pcbdata.synthetic.board_statistics`). A tier's
 rows are its boards in `characteristics.csv` order (the table order: pads, nets, components,
@@ -35,6 +36,11 @@ from pcbdata.synthetic.board_statistics import (  # noqa: E402
     ks_distance,
     pooled_samples,
     summary,
+)
+from pcbdata.synthetic.sampling_noise import (  # noqa: E402
+    NoiseFloor,
+    calibration_copy_distances,
+    perfect_generator_distances,
 )
 
 TIERS = ("A", "B", "C")
@@ -155,6 +161,60 @@ def _critical(n: int, m: int) -> float | None:
     """The asymptotic 95 % critical value of the two-sample KS distance (independent draws;
     the pooled nets of a board are not, so for pads per net it is only a guide)."""
     return round(1.358 * math.sqrt((n + m) / (n * m)), 3) if n and m else None
+
+
+# --- noise: the distances sampling alone gives (pcbdata.synthetic.sampling_noise) ---------
+
+def noise_table(d3_root: Path, tiers: list[str], draws: int) -> dict:
+    """Per tier: a copy of the calibration half over random pads-interleaved splits and over
+    the SPEC's split, and a generator drawing from the whole tier, against a held-out half."""
+    table: dict = {}
+    for tier in tiers:
+        boards = measure(d3_tier_boards(d3_root, tier))
+        held_out_size = len(boards) // 2
+        floors = {
+            "copy_random_split": calibration_copy_distances(boards, draws=draws),
+            "copy_spec_split": calibration_copy_distances(boards, draws=draws, split="spec"),
+            "perfect_generator": perfect_generator_distances(
+                boards, held_out_size=held_out_size, draws=draws),
+        }
+        table[tier] = {"boards": len(boards), "held_out": held_out_size, "draws": draws,
+                       **{key: _noise_summary(floor) for key, floor in floors.items()}}
+    return table
+
+
+def _noise_summary(floor: NoiseFloor) -> dict:
+    per_statistic = {name: {"median": round(floor.quantile(name, 50), 3),
+                            "p95": round(floor.quantile(name, 95), 3),
+                            "share_above_target": round(floor.share_above(KS_TARGET, name), 3)}
+                     for name in STATISTICS}
+    return {"share_any_above_target": round(floor.share_above(KS_TARGET), 3),
+            "statistics": per_statistic}
+
+
+def noise_markdown(report: dict) -> str:
+    lines = []
+    for tier, row in report["noise"].items():
+        copy, spec, perfect = (row[k] for k in ("copy_random_split", "copy_spec_split",
+                                               "perfect_generator"))
+        lines += [f"D3-{tier} ({row['boards']} boards, held-out half {row['held_out']}; "
+                  f"{row['draws']} draws, 512 synthetic boards each): median / 95th percentile "
+                  f"/ share of draws above {KS_TARGET}", "",
+                  "| statistic | copy of the calibration half, random splits | copy, SPEC split "
+                  "| perfect generator |", "|---|---:|---:|---:|"]
+        for name in STATISTICS:
+            cells = [_noise_cell(side["statistics"][name]) for side in (copy, spec, perfect)]
+            lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        lines.append("| any statistic | " + " | ".join(
+            f"{100 * side['share_any_above_target']:.0f} %" for side in (copy, spec, perfect))
+            + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _noise_cell(cell: dict) -> str:
+    return (f"{cell['median']:.3f} / {cell['p95']:.3f} / "
+            f"{100 * cell['share_above_target']:.0f} %")
 
 
 # --- difficulty: the agent's CP @1 on both sides ---------------------------------------
@@ -280,11 +340,16 @@ def main(argv: list[str] | None = None) -> None:
     start = time.perf_counter()
     report = {"machine": machine(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
               "load_average": os.getloadavg(), "d3": str(d3_root)}
+    if args.noise:
+        report["noise"] = noise_table(d3_root, args.tier, args.draws)
+        report["seconds"] = round(time.perf_counter() - start, 1)
+        _write(args, report, noise_markdown(report))
+        return
     if args.halves:
         report.update(config="calibration half", split="odd rows", synthetic_boards=0,
                       ks=ks_table(d3_root, args.tier, None))
     elif not args.synthetic or not args.config:
-        raise SystemExit("bench_realism: give --synthetic and --config (or --halves, or "
+        raise SystemExit("bench_realism: give --synthetic and --config (or --halves, --noise or "
                          "--write-targets)")
     else:
         boards = synthetic_boards(Path(args.synthetic), args.config, args.split, args.limit)
@@ -293,7 +358,10 @@ def main(argv: list[str] | None = None) -> None:
     if args.difficulty and not args.halves:
         report["difficulty"] = {tier: difficulty(args, d3_root, tier) for tier in args.tier}
     report["seconds"] = round(time.perf_counter() - start, 1)
-    text = markdown(report)
+    _write(args, report, markdown(report))
+
+
+def _write(args, report: dict, text: str) -> None:
     print(text)
     if args.md:
         Path(args.md).write_text(text)
@@ -318,6 +386,11 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--halves", action="store_true",
                         help="compare each tier's calibration half with its held-out half "
                              "instead of a synthetic set (the distance sampling alone gives)")
+    parser.add_argument("--noise", action="store_true",
+                        help="the distances sampling alone gives on each tier: a copy of the "
+                             "calibration half, and a generator drawing from the tier itself "
+                             "(pcbdata.synthetic.sampling_noise)")
+    parser.add_argument("--draws", type=int, default=1000, help="simulated draws (--noise)")
     parser.add_argument("--write-targets", metavar="PATH",
                         help="only write each tier's calibration-half summary (JSON)")
     parser.add_argument("--difficulty", action="store_true",

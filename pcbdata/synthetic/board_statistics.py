@@ -24,9 +24,13 @@ import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from pcbdata.core.copper_geometry import arc_polyline
 from pcbdata.core.copper_text import SEXPR_TOKEN
+
+if TYPE_CHECKING:
+    from numpy.typing import NDArray
 
 #: The seven statistics, in the order of tables and reports.
 STATISTICS = ("nets", "pads", "components", "pads_per_net", "layers", "pad_density",
@@ -343,7 +347,7 @@ def pooled_samples(stats: Iterable[BoardStatistics]) -> dict[str, list[float]]:
     return pooled
 
 
-def ks_distance(a: Sequence[float], b: Sequence[float]) -> float | None:
+def ks_distance(a: Sequence[float] | NDArray, b: Sequence[float] | NDArray) -> float | None:
     """Two-sample Kolmogorov-Smirnov distance: the largest gap between the two empirical
     distribution functions (None if a sample is empty)."""
     import numpy as np
