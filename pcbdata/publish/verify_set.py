@@ -7,6 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from pcbdata.core.fsutil import sha256_file
+from pcbdata.core.tree import REFERENCE_FILE
 from pcbdata.model.manifest import MANIFEST_NAME, read_manifest
 
 # A `hf download --local-dir` of a set adds its metadata folder and the Hub repo's attributes.
@@ -70,7 +71,13 @@ def _check_config(config_dir: Path, config_name: str, config: dict, shards: set[
         if split.get("count", len(split["boards"])) != len(split["boards"]):
             problems.append(f"{where}: count says {split['count']} boards but the manifest "
                             f"lists {len(split['boards'])}")
-        problems += check_split(config_dir / split_name, where, split["boards"])
+        pending = _references_pending(split)
+        if pending:
+            problems.append(f"{where}: reference routing unfinished: {pending} of "
+                            f"{len(split['boards'])} boards have no result yet (the build "
+                            f"stopped before its end; run it again, it resumes)")
+        problems += check_split(config_dir / split_name, where, split["boards"],
+                                references_pending=bool(pending))
     if config_dir.is_dir():
         for entry in sorted(config_dir.iterdir()):
             rel = f"{config_name}/{entry.name}"
@@ -88,7 +95,15 @@ def _check_config(config_dir: Path, config_name: str, config: dict, shards: set[
     return problems
 
 
-def check_split(split_dir: Path, where: str, boards: dict) -> list[str]:
+def _references_pending(split: dict) -> int:
+    """Boards of a split routed for references that have no result yet: the manifest written
+    before the routing, left by a build stopped during it."""
+    record = split.get("reference_routing")
+    return max(0, len(split["boards"]) - record["boards"]) if record else 0
+
+
+def check_split(split_dir: Path, where: str, boards: dict,
+                references_pending: bool = False) -> list[str]:
     if not split_dir.is_dir():
         if boards:  # an empty split (e.g. a tier a small corpus leaves empty) has no folder
             return [f"{where}: split folder missing ({len(boards)} boards)"]
@@ -99,7 +114,9 @@ def check_split(split_dir: Path, where: str, boards: dict) -> list[str]:
         if board_id not in on_disk:
             problems.append(f"{where}/{board_id}: board missing")
         else:
-            problems += _check_board(split_dir / board_id, f"{where}/{board_id}", board["files"])
+            pending = references_pending and "reference_routing" not in board
+            problems += _check_board(split_dir / board_id, f"{where}/{board_id}", board["files"],
+                                     pending)
     for extra in sorted(on_disk - set(boards)):
         what = ("leftover of an interrupted run" if _is_leftover(extra)
                 else "extra entry not in the manifest")
@@ -107,14 +124,18 @@ def check_split(split_dir: Path, where: str, boards: dict) -> list[str]:
     return problems
 
 
-def _check_board(board_dir: Path, where: str, files: dict[str, str]) -> list[str]:
+def _check_board(board_dir: Path, where: str, files: dict[str, str],
+                 reference_pending: bool = False) -> list[str]:
     if not board_dir.is_dir():
         return [f"{where}: not a folder"]
     problems: list[str] = []
     for name, sha in sorted(files.items()):
         problems += _check_file(board_dir / name, sha, f"{where}/{name}")
     for extra in sorted({p.name for p in board_dir.iterdir()} - set(files)):
-        problems.append(f"{where}/{extra}: extra file not in the manifest")
+        why = ("routed after the manifest was written (reference routing unfinished)"
+               if reference_pending and extra == REFERENCE_FILE
+               else "extra file not in the manifest")
+        problems.append(f"{where}/{extra}: {why}")
     return problems
 
 

@@ -102,6 +102,29 @@ def test_a_build_run_again_routes_only_what_it_had_not(routed, tmp_path, capsys)
     assert "(2 kept from an earlier run)" in out and "reference routing (" not in err
 
 
+def test_verify_names_a_reference_routing_stopped_before_its_end(routed, tmp_path, capsys):
+    copy = tmp_path / "copy"
+    shutil.copytree(routed, copy)
+    # The manifest as the build writes it before routing, when board_00001 had no result yet
+    # (its reference then routed, the build killed before the manifest was written again).
+    manifest = json.loads((copy / "manifest.json").read_text())
+    split = manifest["configs"]["d2r-a"]["splits"]["test"]
+    board = split["boards"]["board_00001"]
+    del board["reference_routing"], board["files"][REFERENCE_FILE]
+    split["reference_routing"].update(boards=1, routed=1)
+    (copy / "manifest.json").write_text(json.dumps(manifest))
+    capsys.readouterr()
+    assert main(["verify", str(copy)]) != 0
+    out = capsys.readouterr()
+    text = out.out + out.err
+    assert "d2r-a/test: reference routing unfinished: 1 of 2 boards have no result yet" in text
+    assert ("d2r-a/test/board_00001/reference.kicad_pcb: routed after the manifest was written"
+            in text)
+    assert "extra file" not in text
+    assert _build(copy, "--reference-agent", "--reference-rollouts", "2") == 0
+    assert main(["verify", str(copy)]) == 0
+
+
 def test_a_build_without_the_option_drops_them(routed, tmp_path):
     copy = tmp_path / "copy"
     shutil.copytree(routed, copy)
