@@ -29,11 +29,13 @@ from _measure import machine  # noqa: E402
 
 from pcbdata.core import tree  # noqa: E402
 from pcbdata.synthetic.board_statistics import (  # noqa: E402
+    NET_SHAPES,
     PER_NET,
     STATISTICS,
     BoardStatistics,
     board_statistics,
     ks_distance,
+    net_shape_samples,
     pooled_samples,
     summary,
 )
@@ -147,13 +149,16 @@ def ks_table(d3_root: Path, tiers: list[str], synthetic: list[BoardStatistics] |
     for tier in tiers:
         calibration, held_out = halves(d3_tier_boards(d3_root, tier))
         compared = calibration if half == "calibration" and synthetic is not None else held_out
-        real = pooled_samples(measure(compared))
-        ours = pooled_samples(measure(calibration) if synthetic is None else synthetic)
-        counts = {name: [len(real[name]), len(ours[name])] for name in STATISTICS}
+        real_stats = measure(compared)
+        our_stats = measure(calibration) if synthetic is None else synthetic
+        real = {**pooled_samples(real_stats), **net_shape_samples(real_stats)}
+        ours = {**pooled_samples(our_stats), **net_shape_samples(our_stats)}
+        names = STATISTICS + NET_SHAPES
+        counts = {name: [len(real[name]), len(ours[name])] for name in names}
         table[tier] = {"boards": len(compared), "counts": counts,
                        "distances": {name: ks_distance(real[name], ours[name])
-                                     for name in STATISTICS},
-                       "critical_95": {name: _critical(*counts[name]) for name in STATISTICS}}
+                                     for name in names},
+                       "critical_95": {name: _critical(*counts[name]) for name in names}}
     return table
 
 
@@ -306,10 +311,11 @@ def markdown(report: dict) -> str:
     lines = [f"{side}: KS distance vs the {half} half (95 % critical value); * above the "
              f"target {KS_TARGET}", "", head,
              "|---|" + "---:|" * len(tiers)]
-    for name in STATISTICS:
+    for name in STATISTICS + NET_SHAPES:
         cells = [_cell(report["ks"][t]["distances"][name], report["ks"][t]["critical_95"][name])
                  for t in tiers]
         label = name + (" (all nets)" if name == PER_NET else "")
+        label += " (per board; not SPEC 2b's)" if name in NET_SHAPES else ""
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     for tier, side in report.get("difficulty", {}).items():
         real, ours = side["real"], side["synthetic"]

@@ -379,6 +379,7 @@ class _Nets:
 
     def assign(self, parts: list[Part]) -> list[Part]:
         rails = _RAILS[:self.stream.choice(self.p.power_rails)]
+        self.decoupling = self._board_decoupling()
         for k, part in enumerate(parts):
             self._power_pins(k, part, rails)
         self._trim_power()
@@ -387,6 +388,15 @@ class _Nets:
         return [replace(part, pads=tuple(
             replace(pad, net=self.nets.get((k, j), "")) for j, pad in enumerate(part.pads)))
             for k, part in enumerate(parts)]
+
+    def _board_decoupling(self) -> float:
+        """The share of this board's passives on a rail: the level's, spread per board by
+        `power_spread` (no draw at 0: boards unchanged)."""
+        fraction = self.p.decoupling_fraction
+        if not self.p.power_spread:
+            return fraction
+        scale = 1 + self.p.power_spread * (2 * self.stream.random() - 1)
+        return min(1.0, fraction * scale)
 
     def _connections(self) -> int:
         """Ratsnest edges so far: pins minus one per net."""
@@ -415,7 +425,7 @@ class _Nets:
             self._some(k, pins, wanted if len(pins) >= 3 else wanted[:1])
         elif kind == "connector" and len(free) >= 2 and self.stream.random() < 0.5:
             self._some(k, free, ["GND"] + ([self.stream.choice(rails)] if rails else []))
-        elif kind == "passive" and rails and self.stream.random() < self.p.decoupling_fraction:
+        elif kind == "passive" and rails and self.stream.random() < self.decoupling:
             self.nets[(k, 0)] = self.stream.choice(rails)
             self.nets[(k, 1)] = "GND"
 
@@ -433,7 +443,7 @@ class _Nets:
                                                    parts[pin[0]].pads[pin[1]].dy)
                  for pin in pins}
         sizes = sorted(self.p.signal_net_sizes)
-        weights = [self.p.signal_net_sizes[s] for s in sizes]
+        weights = self._net_size_weights(sizes)
         skipped: set[tuple[int, int]] = set()
         order = list(pins)
         for i in range(len(order) - 1, 0, -1):  # Fisher-Yates on the board's stream
@@ -459,6 +469,15 @@ class _Nets:
             budget -= len(members)
             for member in [pin, *members]:
                 self.nets[member] = f"N{count}"
+
+    def _net_size_weights(self, sizes: list[str]) -> list[float]:
+        """The board's weights of the signal net sizes: the level's table, tilted towards small
+        or large nets by a draw within `net_size_spread` (no draw at 0: boards unchanged)."""
+        weights = [self.p.signal_net_sizes[s] for s in sizes]
+        if not self.p.net_size_spread:
+            return weights
+        tilt = self.p.net_size_spread * (2 * self.stream.random() - 1)
+        return [w * math.exp(tilt * (int(s) - 2)) for s, w in zip(sizes, weights)]
 
     def _neighbours(self, pin, wanted: int, pins, where, skipped) -> list[tuple[int, int]]:
         """Up to `wanted` free pins of distinct other parts, drawn from the `locality`

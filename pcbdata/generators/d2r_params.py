@@ -68,6 +68,12 @@ class D2RParams(GeneratorParams):
     connected_fraction: float = 0.8
     signal_net_sizes: dict[str, float] = field(default_factory=lambda: {
         "2": 0.66, "3": 0.2, "4": 0.08, "5": 0.04, "6": 0.02})
+    #: Per board, signal net sizes tilted by exp(t * (size - 2)), t uniform in [-spread,
+    #: spread]: boards of mostly two-pad nets and boards of larger ones (0: the table as is).
+    net_size_spread: float = 0.0
+    #: Per board, `decoupling_fraction` scaled by a factor uniform in [1 - spread, 1 + spread]
+    #: (at most 1): boards with few power pins and boards with many (0: the level's fraction).
+    power_spread: float = 0.0
     locality: int = 3
     max_connections: int = KICAD_MAX_UNCONNECTED
     compactness: int = 4
@@ -105,6 +111,10 @@ class D2RParams(GeneratorParams):
                        f"{self.components_median}")
         if not 0 <= self.style_spread <= 2:
             out.append(f"style_spread must be from 0 to 2, got {self.style_spread}")
+        if not 0 <= self.net_size_spread <= 2:
+            out.append(f"net_size_spread must be from 0 to 2, got {self.net_size_spread}")
+        if not 0 <= self.power_spread <= 1:
+            out.append(f"power_spread must be from 0 to 1, got {self.power_spread}")
         for name in ("components_sigma", "pads_per_component_sigma"):
             if not 0 <= getattr(self, name) <= 3:
                 out.append(f"{name} must be from 0 to 3, got {getattr(self, name)}")

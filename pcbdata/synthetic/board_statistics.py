@@ -347,6 +347,24 @@ def pooled_samples(stats: Iterable[BoardStatistics]) -> dict[str, list[float]]:
     return pooled
 
 
+#: Per-board shapes of a board's nets, reported beside the seven (not SPEC statistics): the
+#: pooled pads per net cannot tell boards of all two-pad nets plus boards of large ones from
+#: boards that are all alike.
+NET_SHAPES = ("two_pad_net_share", "largest_net_share")
+
+
+def net_shape_samples(stats: Iterable[BoardStatistics]) -> dict[str, list[float]]:
+    """Per board with nets: the share of its nets that have two pads, and the share of its
+    terminal pads on its largest net."""
+    out: dict[str, list[float]] = {name: [] for name in NET_SHAPES}
+    for one in stats:
+        if one.pads_per_net:
+            out["two_pad_net_share"].append(
+                sum(1 for n in one.pads_per_net if n == 2) / len(one.pads_per_net))
+            out["largest_net_share"].append(max(one.pads_per_net) / sum(one.pads_per_net))
+    return out
+
+
 def ks_distance(a: Sequence[float] | NDArray, b: Sequence[float] | NDArray) -> float | None:
     """Two-sample Kolmogorov-Smirnov distance: the largest gap between the two empirical
     distribution functions (None if a sample is empty)."""

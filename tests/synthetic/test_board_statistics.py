@@ -179,3 +179,14 @@ def test_nets_and_pads_count_as_pcbench_final_json(pcbench_boards):
         assert stats.pads == sum(map(len, copper)), name
         assert stats.pads_per_net == tuple(sorted(map(len, copper))), name
     assert board_statistics(pcbench_boards / "bikedar_bikedar" / "processed.kicad_pcb").layers == 4
+
+
+def test_net_shapes_are_per_board_shares_of_two_pad_nets_and_of_the_largest_net():
+    from pcbdata.synthetic.board_statistics import BoardStatistics, net_shape_samples
+
+    def board(*sizes: int) -> BoardStatistics:
+        return BoardStatistics(nets=len(sizes), pads=sum(sizes), components=3, layers=2,
+                               pads_per_net=tuple(sizes), outline_area_mm2=100.0)
+
+    shapes = net_shape_samples([board(2, 2, 2, 6), board(), board(3, 3)])
+    assert shapes == {"two_pad_net_share": [0.75, 0.0], "largest_net_share": [0.5, 0.5]}
