@@ -67,13 +67,13 @@ class D2RParams(GeneratorParams):
     decoupling_fraction: float = 0.4
     connected_fraction: float = 0.8
     signal_net_sizes: dict[str, float] = field(default_factory=lambda: {
-        "2": 0.66, "3": 0.2, "4": 0.08, "5": 0.04, "6": 0.02})
+        "2": 0.7, "3": 0.18, "4": 0.07, "5": 0.035, "6": 0.015})
     #: Per board, signal net sizes tilted by exp(t * (size - 2)), t uniform in [-spread,
     #: spread]: boards of mostly two-pad nets and boards of larger ones (0: the table as is).
-    net_size_spread: float = 0.0
+    net_size_spread: float = 1.0
     #: Per board, `decoupling_fraction` scaled by a factor uniform in [1 - spread, 1 + spread]
     #: (at most 1): boards with few power pins and boards with many (0: the level's fraction).
-    power_spread: float = 0.0
+    power_spread: float = 0.5
     locality: int = 3
     max_connections: int = KICAD_MAX_UNCONNECTED
     compactness: int = 4
