@@ -19,7 +19,8 @@ def _tree_rss_kib(root_pid: int) -> int:
             with open(f"/proc/{name}/stat") as handle:
                 ppid = int(handle.read().rsplit(")", 1)[1].split()[1])
             with open(f"/proc/{name}/status") as handle:
-                kib = next((int(line.split()[1]) for line in handle if line.startswith("VmRSS:")), 0)
+                kib = next((int(line.split()[1]) for line in handle
+                            if line.startswith("VmRSS:")), 0)
         except (OSError, ValueError, IndexError):
             continue
         children.setdefault(ppid, []).append(int(name))
@@ -35,7 +36,8 @@ def _tree_rss_kib(root_pid: int) -> int:
 def run_measured(command: list[str], **kwargs) -> dict:
     """Runs a command; returns seconds, peak RSS of its process tree (MiB) and its output."""
     start = time.perf_counter()
-    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kwargs)
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                               **kwargs)
     peak = 0
     stop = threading.Event()
 
@@ -59,7 +61,8 @@ def machine() -> str:
     cpu = next((line.split(":", 1)[1].strip() for line in open("/proc/cpuinfo")
                 if line.startswith("model name")), platform.processor())
     mem_gib = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") / 2 ** 30
-    return f"{os.cpu_count()} cores ({cpu}), {mem_gib:.0f} GiB, {platform.system()} {platform.release()}; {date.today()}"
+    return (f"{os.cpu_count()} cores ({cpu}), {mem_gib:.0f} GiB, "
+            f"{platform.system()} {platform.release()}; {date.today()}")
 
 
 def report(result: dict, json_path: str | None) -> None:

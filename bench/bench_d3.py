@@ -13,8 +13,8 @@ from __future__ import annotations
 import argparse
 import json
 import shutil
-import sys
 import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -64,8 +64,8 @@ def main() -> None:
         ours = run_measured([python, "-m", "pcbdata", "build", "d3", "--quiet", "--source",
                              str(tmp / "sample"), "--out", str(tmp / "out"), "--workers",
                              str(args.workers)], cwd=REPO)
-        base_kept = sorted(json.loads(l)["name"] for l in base["stdout"].splitlines()
-                           if json.loads(l)["kept"])
+        base_kept = sorted(json.loads(line)["name"] for line in base["stdout"].splitlines()
+                           if json.loads(line)["kept"])
         report = json.loads((tmp / "out" / "curation_report.json").read_text())
         ours_kept = sorted(b["name"] for b in report["boards"] if b["fate"] == "kept")
         result = {

@@ -29,7 +29,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
@@ -37,9 +37,10 @@ ROOT = HERE.parent
 sys.path[:0] = [str(HERE), str(ROOT)]
 
 from _measure import machine  # noqa: E402
+
 from pcbdata.kicad import fastwait  # noqa: E402
-from pcbdata.testing.drc import drc_parity, with_straight_tracks
-from pcbdata.testing.sets import write_board# noqa: E402
+from pcbdata.testing.drc import drc_parity, with_straight_tracks  # noqa: E402
+from pcbdata.testing.sets import write_board  # noqa: E402
 
 SNAPSHOT = ROOT.parent / "shared" / "pcbench" / "pcbench.tar.xz"
 
@@ -112,7 +113,8 @@ def _same_outputs(a: Path, b: Path) -> list[str]:
         if not (x.is_file() and y.is_file()):
             differ.append(str(rel))
         elif rel.name == "curation_report.json":
-            if _without_timings(json.loads(x.read_text())) != _without_timings(json.loads(y.read_text())):
+            if (_without_timings(json.loads(x.read_text()))
+                    != _without_timings(json.loads(y.read_text()))):
                 differ.append(str(rel))
         elif rel.name == "curation_report.csv":
             strip = lambda t: [line.rsplit(",", 1)[0] for line in t.splitlines()]  # noqa: E731
@@ -142,7 +144,8 @@ def d3_build(work: Path, count: int) -> dict | None:
                                str(sample), "--out", str(out), "--workers", "2", "--quiet"],
                               env=env, capture_output=True, text=True)
         if done.returncode != 0:
-            raise RuntimeError(f"pcbdata build d3 ({mode} the preload) failed:\n{done.stderr[-2000:]}")
+            raise RuntimeError(f"pcbdata build d3 ({mode} the preload) failed:\n"
+                               f"{done.stderr[-2000:]}")
         figures[f"wall_s_{mode}"] = time.monotonic() - start
         figures[f"drc_s_{mode}"] = sum(json.loads(p.read_text()).get("timings", {}).get("drc", 0)
                                        for p in (out / ".d3-state").glob("*.json"))
@@ -164,7 +167,8 @@ def summarise(name: str, paths: list, result: dict) -> dict:
 
 
 def print_table(rows: list[dict]) -> None:
-    print(f"{'group':28s} {'boards':>6s} {'parity':>20s} {'median s':>17s} {'sum s':>15s} {'x':>5s}")
+    print(f"{'group':28s} {'boards':>6s} {'parity':>20s} {'median s':>17s} "
+          f"{'sum s':>15s} {'x':>5s}")
     for r in rows:
         parity = f"{r['identical']} same, {len(r['kicad_varies'])} var, {len(r['different'])} diff"
         print(f"{r['group']:28s} {r['boards']:6d} {parity:>20s} "
@@ -189,7 +193,7 @@ def main() -> int:
         parser.error("--runs and --set go together")
     work = args.work or Path(tempfile.mkdtemp(prefix="bench-drc-wait-"))
     load_before = os.getloadavg()
-    started = datetime.now(timezone.utc)
+    started = datetime.now(UTC)
     groups = [("D2 test, straight tracks", tracked_d2(work)),
               ("D2 test, freeroute-routed", routed_d2(work, args.set, args.runs)),
               ("D3 real boards", real_d3(work, args.d3))]
@@ -203,9 +207,11 @@ def main() -> int:
     build = d3_build(work, args.d3_build)
     if build:
         print(f"pcbdata build d3, {build['boards']} boards, 2 workers: wall "
-              f"{build['wall_s_without']:.1f} -> {build['wall_s_with']:.1f} s, DRC (sum over boards) "
+              f"{build['wall_s_without']:.1f} -> {build['wall_s_with']:.1f} s, "
+              f"DRC (sum over boards) "
               f"{build['drc_s_without']:.1f} -> {build['drc_s_with']:.1f} s, outputs "
-              + ("identical" if not build["differing_files"] else f"DIFFER: {build['differing_files']}"))
+              + ("identical" if not build["differing_files"]
+                 else f"DIFFER: {build['differing_files']}"))
     results = {"machine": machine(), "started_utc": started.strftime("%Y-%m-%d %H:%M"),
                "load_average_before": load_before, "load_average_after": os.getloadavg(),
                "workers": 2, "groups": rows, "d3_build": build}

@@ -23,15 +23,15 @@ import sys
 import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from pcbdata.kicad.cli_tools import kicad_cli  # noqa: E402
-from pcbdata.evaluator.metrics import COUNTED_WARNINGS  # noqa: E402
 from pcbdata.core.tree import list_instances  # noqa: E402
+from pcbdata.evaluator.metrics import COUNTED_WARNINGS  # noqa: E402
 from pcbdata.evaluator.runs import evaluate_set, list_rollouts  # noqa: E402
+from pcbdata.kicad.cli_tools import kicad_cli  # noqa: E402
 
 
 def cli_counts(instance: Path, routed: Path) -> dict:
@@ -51,7 +51,8 @@ def cli_counts(instance: Path, routed: Path) -> dict:
     for v in data.get("violations", []):
         if v.get("excluded") or v["severity"] == "exclusion":
             continue
-        if v["severity"] == "error" or (v["severity"] == "warning" and v["type"] in COUNTED_WARNINGS):
+        if v["severity"] == "error" or (v["severity"] == "warning"
+                                        and v["type"] in COUNTED_WARNINGS):
             by_type[v["type"]] = by_type.get(v["type"], 0) + 1
     unconnected = [v for v in data.get("unconnected_items", []) if not v.get("excluded")]
     for v in unconnected:
@@ -100,7 +101,7 @@ def main() -> int:
                 "drv_strict": mine["drv_strict"], "unconnected": mine["unconnected"],
                 "drv_strict_by_type": mine["drv_strict_by_type"]}, "kicad_cli": counts})
     figures = {
-        "date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
+        "date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
         "machine": f"{os.cpu_count()} cores, {platform.machine()}, 1-min load average at the end "
                    f"{os.getloadavg()[0]:.1f}",
         "config": args.config, "split": args.split, "k": args.k, "workers": args.workers,

@@ -22,7 +22,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
@@ -49,7 +49,8 @@ print(json.dumps(out))
 """
 
 
-def _fresh_load(root: Path, config: str, splits: list[str], via: str, cache: Path | None = None) -> dict:
+def _fresh_load(root: Path, config: str, splits: list[str], via: str,
+                cache: Path | None = None) -> dict:
     cache = cache or _tempdir("pcbdata-bench-cache-")
     env = dict(os.environ, HF_HOME=str(cache / "hf"), HF_DATASETS_CACHE=str(cache / "datasets"),
                HF_HUB_OFFLINE="1", HF_DATASETS_OFFLINE="1", HF_DATASETS_DISABLE_PROGRESS_BARS="1")
@@ -90,14 +91,16 @@ def main() -> int:
     parser.add_argument("--config", default="d2")
     parser.add_argument("--json", type=Path, help="write the figures here too")
     args = parser.parse_args()
-    report = {"date": datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC"),
-              "machine": f"{os.cpu_count()} cores, {platform.machine()}, Python {platform.python_version()}",
+    report = {"date": datetime.now(UTC).strftime("%Y-%m-%d %H:%M UTC"),
+              "machine": (f"{os.cpu_count()} cores, {platform.machine()}, "
+                          f"Python {platform.python_version()}"),
               "load_average": os.getloadavg()}
     root = args.root
     if root is None:
         root = _tempdir("pcbdata-bench-") / "set"
         t = time.perf_counter()
-        subprocess.run([sys.executable, "-m", "pcbdata", "build", "d2", "--no-check", "--out", str(root)],
+        subprocess.run([sys.executable, "-m", "pcbdata", "build", "d2", "--no-check",
+                        "--out", str(root)],
                        check=True, capture_output=True)
         report["build_and_publish_s"] = time.perf_counter() - t
     sys.path.insert(0, str(REPO))
@@ -120,9 +123,11 @@ def main() -> int:
     fresh = report["load_dataset_fresh"]
     total = sum(s["seconds"] for s in fresh["splits"].values())
     print(f"\nload_dataset({args.config}) from a fresh cache: {report['boards']} boards in "
-          f"{total:.2f} s (+ import {fresh['import_s']:.2f} s); publish {report['publish_s']:.1f} s")
+          f"{total:.2f} s (+ import {fresh['import_s']:.2f} s); "
+          f"publish {report['publish_s']:.1f} s")
     for config, size in report["sizes"].items():
-        print(f"{config}: parquet {size['parquet_bytes'] / 1e6:.1f} MB vs tree {size['tree_bytes'] / 1e6:.1f} MB "
+        print(f"{config}: parquet {size['parquet_bytes'] / 1e6:.1f} MB "
+              f"vs tree {size['tree_bytes'] / 1e6:.1f} MB "
               f"({size['tree_disk_bytes'] / 1e6:.1f} MB on disk, {size['tree_files']} files): "
               f"{size['ratio_bytes']:.1f}x / {size['ratio_disk']:.1f}x")
     if args.json:

@@ -72,8 +72,8 @@ def build(out: Path, executor, workers: int, boards: int) -> dict:
 
 
 def make_rollouts(root: Path, runs: Path, boards: int) -> int:
-    from pcbdata.spec.configs import get_config
     from pcbdata.model.kicad_writer import board_files
+    from pcbdata.spec.configs import get_config
     from pcbdata.testing.drc import with_straight_tracks
 
     spec = get_config("d2")
@@ -129,8 +129,8 @@ def actors(root: Path, cores: int, boards: int) -> dict:
     import gymnasium as gym
     import ray
 
-    from pcbdata.agents.scripted import ScriptedAgent
     from pcbdata.agents.ray_actors import close_actors, make_actors, run_episodes, step_episodes
+    from pcbdata.agents.scripted import ScriptedAgent
 
     specs = [(f"board_{i:05d}", 0) for i in range(boards)]
     options = {"root": str(root), "split": "test"}

@@ -38,7 +38,8 @@ def main() -> None:
         d2 = run_measured([*PCBDATA, "build", "d2", "--no-check", "--out", str(tmp / "d2")])
         results["write_d2_full_s"] = d2["seconds"]
         results["write_d2_full_peak_mib"] = d2["peak_mib"]
-        d1 = run_measured([*PCBDATA, "build", "d1", "--grid", "500", "--no-check", "--out", str(tmp / "d1")])
+        d1 = run_measured([*PCBDATA, "build", "d1", "--grid", "500", "--no-check",
+                           "--out", str(tmp / "d1")])
         results["write_d1_g500_full_s"] = d1["seconds"]
 
         boards = sorted((tmp / "d2" / "d2" / "test").glob("board_*/board.kicad_pcb"))

@@ -1,11 +1,13 @@
-"""Benchmark of vectorised RL use: steps per second of `pcbdata.env.wrappers.rl.make_vector_env` (Gymnasium's
-AsyncVectorEnv over spawned workers, one KiCad engine each) for 1, 2 and 4 environments, against
-one unwrapped environment stepped serially in this process (the baseline) and one wrapped
-environment in this process (the wrapper's own cost).
+"""Benchmark of vectorised RL use: steps per second of vector environments against one.
+
+`pcbdata.env.wrappers.rl.make_vector_env` (Gymnasium's AsyncVectorEnv over spawned workers, one
+KiCad engine each) for 1, 2 and 4 environments, against one unwrapped environment stepped
+serially in this process (the baseline) and one wrapped environment in this process (the
+wrapper's own cost).
 
 A masked random policy (uniform over allowed types, then over that type's allowed index and
-mode: `pcbdata.env.wrappers.rl.sample_action`, seed 0; the baseline and the one-environment runs take
-the same actions, so they play the same episodes), D2 boards generated on the fly, episodes of
+mode: `pcbdata.env.wrappers.rl.sample_action`, seed 0; the baseline and the one-environment runs
+take the same actions, so they play the same episodes), D2 boards generated on the fly, episodes of
 at most `--max-steps` steps (finished episodes reset inside the timed run, as in training), DRC
 after every copper change and DRC at the end only. Timing starts after the first reset (the
 KiCad workers' start-up is not counted); each row is the fastest of `--repeat` runs.

@@ -1,4 +1,4 @@
-"""Calibrates the D2 levels by the baseline routers: CP should fall with rank.
+r"""Calibrates the D2 levels by the baseline routers: CP should fall with rank.
 
 For every D2 level of the registry: build N test boards (no KiCad check: the boards are
 pinned by the golden tests), route them with each router (`pcbdata route`), score @1 and @k
@@ -6,7 +6,8 @@ pinned by the golden tests), route them with each router (`pcbdata route`), scor
 Via @k and the median router wall and CPU seconds per board. Writes
 `bench/results/levels.json` with machine, date and load.
 
-    .venv/bin/python bench/calibrate_levels.py --boards 64 --rollouts 5 [--routers freeroute,kicad-tools]
+    .venv/bin/python bench/calibrate_levels.py --boards 64 --rollouts 5 \
+        [--routers freeroute,kicad-tools]
 """
 from __future__ import annotations
 
@@ -24,8 +25,8 @@ from _measure import machine  # noqa: E402
 
 from pcbdata.baselines.routing import route_set  # noqa: E402
 from pcbdata.cli import main as cli  # noqa: E402
-from pcbdata.spec.configs import registry  # noqa: E402
 from pcbdata.evaluator.runs import evaluate_set  # noqa: E402
+from pcbdata.spec.configs import registry  # noqa: E402
 
 
 def level_row(root: Path, config: str, router: str, boards: int, rollouts: int,
@@ -71,14 +72,20 @@ def main() -> int:
                 row["rank"] = spec.rank
                 rows.append(row)
                 print(json.dumps(row), flush=True)
-    print("\n| level | rank | router | CP @1 (%) | CP @k (%) | Rout. @k | DRV @1 | DRV @k | WL @k (mm) | Via @k | router s/board (median) |")
+    print("\n| level | rank | router | CP @1 (%) | CP @k (%) | Rout. @k | DRV @1 | DRV @k "
+          "| WL @k (mm) | Via @k | router s/board (median) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
-        print(f"| {r['config']} | {r['rank']} | {r['router']} (k={r['k']}) | {100 * r['cp_at1']:.1f} | "
+        print(f"| {r['config']} | {r['rank']} | {r['router']} (k={r['k']}) | "
+              f"{100 * r['cp_at1']:.1f} | "
               f"{100 * r['cp_atk']:.1f} | {r['rout']:.3f} | {r['drv_at1']:.2f} | {r['drv']:.2f} | "
               f"{r['wl']:.1f} | {r['via']:.2f} | {r['median_router_s']:.2f} |")
     Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.out).write_text(json.dumps({"machine": machine(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()), "load": os.getloadavg(), "seconds": time.time() - started,
+    Path(args.out).write_text(json.dumps({"machine": machine(),
+                                          "date": time.strftime("%Y-%m-%d %H:%M UTC",
+                                                                time.gmtime()),
+                                          "load": os.getloadavg(),
+                                          "seconds": time.time() - started,
                                           "rows": rows}, indent=1) + "\n")
     return 0
 

@@ -21,8 +21,8 @@ sys.exit(0 if board is not None and pcbnew.SaveBoard(sys.argv[2], board) else 1)
 
 
 def one(folder: Path, compat: dict) -> dict:
-    from pcbdata.kicad.projectfile import default_clearance, dumps_project, patch_project
     from pcbdata.kicad.drc_report import parse_drc_report
+    from pcbdata.kicad.projectfile import default_clearance, dumps_project, patch_project
 
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="d3-baseline-") as tmp:
