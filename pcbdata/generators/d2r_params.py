@@ -74,7 +74,7 @@ class D2RParams(GeneratorParams):
     #: Per board, `decoupling_fraction` scaled by a factor uniform in [1 - spread, 1 + spread]
     #: (at most 1): boards with few power pins and boards with many (0: the level's fraction).
     power_spread: float = 0.5
-    locality: int = 3
+    locality: int = 4
     max_connections: int = KICAD_MAX_UNCONNECTED
     compactness: int = 4
     edge_clearance_mm: float = 0.5
