@@ -376,6 +376,7 @@ class _Nets:
         self.p = params
         self.target = target  # terminal pads: signal nets stop growing once reached
         self.nets: dict[tuple[int, int], str] = {}
+        self.decoupling = params.decoupling_fraction  # this board's (`_board_decoupling`)
 
     def assign(self, parts: list[Part]) -> list[Part]:
         rails = _RAILS[:self.stream.choice(self.p.power_rails)]
