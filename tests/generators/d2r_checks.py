@@ -1,10 +1,15 @@
-"""Placement checks every D2R board must pass, packed or not (shared by the generator tests)."""
+"""Checks shared by the D2R generator tests: placement every board must pass, packed or not,
+and the bytes a level's parameters wrote before a generator change."""
 from __future__ import annotations
 
 from shapely.geometry import Polygon, box
 
+from pcbdata.core.hashing import sha256_text
+from pcbdata.core.tree import BOARD_FILE
 from pcbdata.generators.d2r import pad_position
 from pcbdata.model.board import Board, EdgeArc, Part
+from pcbdata.model.kicad_writer import board_files
+from pcbdata.spec.configs import d2r_config
 
 
 def courtyard(part: Part) -> Polygon:
@@ -47,3 +52,12 @@ def assert_inside_outline(boards: list[Board]) -> None:
             for pad in part.pads:
                 x, y = pad_position(part, pad)
                 assert inner.contains(box(x - 1, y - 1, x + 1, y + 1))
+
+
+def assert_train_boards_unchanged(overrides: dict, sha256_by_index: dict[int, str]) -> None:
+    """Level a with `overrides` still writes these train boards (seed 0) byte for byte: a new
+    parameter at its off value draws no number."""
+    generator = d2r_config("a", overrides).generator()
+    for index, sha in sha256_by_index.items():
+        board = generator.generate(0, "train", index).board
+        assert sha256_text(board_files(board)[BOARD_FILE]) == sha, index

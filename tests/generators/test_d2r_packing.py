@@ -8,15 +8,18 @@ import statistics
 
 import pytest
 
-from pcbdata.core.hashing import sha256_text
 from pcbdata.core.rng import Stream
-from pcbdata.core.tree import BOARD_FILE
 from pcbdata.generators import footprints as fp
 from pcbdata.generators.d2r_layout import Packer, footprint_box
 from pcbdata.model.board import Board, EdgeArc, Part
 from pcbdata.model.kicad_writer import board_files
 from pcbdata.spec.configs import d2r_config
-from tests.generators.d2r_checks import assert_courtyards_apart, assert_inside_outline, outline
+from tests.generators.d2r_checks import (
+    assert_courtyards_apart,
+    assert_inside_outline,
+    assert_train_boards_unchanged,
+    outline,
+)
 
 PACKED = {"packed_fraction": 1.0}
 # Every outline shape, mounting holes on every board and a crowded back side, all packed.
@@ -139,10 +142,7 @@ LEVEL_A_4_0_0_BOARDS = {
 
 
 def test_with_packing_off_boards_are_byte_identical_to_before():
-    generator = d2r_config("a", LEVEL_A_4_0_0).generator()
-    for index, sha in LEVEL_A_4_0_0_BOARDS.items():
-        board = generator.generate(0, "train", index).board
-        assert sha256_text(board_files(board)[BOARD_FILE]) == sha
+    assert_train_boards_unchanged(LEVEL_A_4_0_0, LEVEL_A_4_0_0_BOARDS)
 
 
 def test_the_packer_puts_each_part_against_the_others():

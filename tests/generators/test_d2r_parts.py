@@ -7,9 +7,7 @@ import functools
 
 import pytest
 
-from pcbdata.core.hashing import sha256_text
 from pcbdata.core.rng import Stream
-from pcbdata.core.tree import BOARD_FILE
 from pcbdata.generators import footprints as fp
 from pcbdata.generators.d2r_parts import (
     DIP_PINS,
@@ -20,9 +18,9 @@ from pcbdata.generators.d2r_parts import (
     pins,
     pins_to_ask,
 )
-from pcbdata.model.kicad_writer import board_files
 from pcbdata.spec.configs import d2r_config
 from pcbdata.spec.presets import d2r_level
+from tests.generators.d2r_checks import assert_train_boards_unchanged
 
 PASSIVES = {"0603": 1.0}
 
@@ -123,7 +121,4 @@ LEVEL_A_3_0_0_BOARDS = {
 
 
 def test_with_the_top_up_by_pin_count_off_boards_are_byte_identical_to_before():
-    generator = d2r_config("a", LEVEL_A_3_0_0).generator()
-    for index, sha in LEVEL_A_3_0_0_BOARDS.items():
-        board = generator.generate(0, "train", index).board
-        assert sha256_text(board_files(board)[BOARD_FILE]) == sha
+    assert_train_boards_unchanged(LEVEL_A_3_0_0, LEVEL_A_3_0_0_BOARDS)
