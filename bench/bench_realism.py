@@ -5,12 +5,17 @@
         [--difficulty --agent scripted-shove --boards 64 --workers 2]
     python bench/bench_realism.py --d3 D3_DIR --write-targets PATH
     python bench/bench_realism.py --d3 D3_DIR --noise [--draws 1000] [--tier A]
+    python bench/bench_realism.py --d3 D3_DIR --synthetic SET_DIR --config d2r-a --tier A
+        --half extended --pcbench PCBENCH_DIR [--external-work DIR]
 
 Both sides are measured from the board files (`pcbdata.synthetic.board_statistics`). A tier's
 rows are its boards in `characteristics.csv` order (the table order: pads, nets, components,
 name); row number = the 1-based position among that tier's rows. Odd row numbers are the
 calibration half (what a generator may be tuned on, `--write-targets`), even ones the
-held-out half the Kolmogorov-Smirnov distances are measured against.
+held-out half the Kolmogorov-Smirnov distances are measured against. With `--pcbench`, the
+calibration side may add the PCBench boards of the tier's size that D3's revalidation dropped
+(`--half extended`, `pcbdata.synthetic.external_boards`): more real boards to fit on, none
+of the held-out half.
 """
 from __future__ import annotations
 
@@ -39,6 +44,7 @@ from pcbdata.synthetic.board_statistics import (  # noqa: E402
     pooled_samples,
     summary,
 )
+from pcbdata.synthetic.external_boards import external_sample  # noqa: E402
 from pcbdata.synthetic.sampling_noise import (  # noqa: E402
     NoiseFloor,
     calibration_copy_distances,
@@ -87,19 +93,29 @@ def measure(boards: list[Board]) -> list[BoardStatistics]:
     return [board_statistics(b.path) for b in boards]
 
 
-def targets(d3_root: Path) -> dict:
-    """Per tier, the calibration half's summary of every statistic."""
+def targets(d3_root: Path, external: dict | None = None) -> dict:
+    """Per tier, the calibration half's summary of every statistic (and, given the dropped
+    PCBench boards of each tier's size, that of the extended sample)."""
     out: dict = {"definitions": _definitions(), "source": str(d3_root), "tiers": {}}
     for tier in TIERS:
         calibration, _ = halves(d3_tier_boards(d3_root, tier))
-        samples = pooled_samples(measure(calibration))
-        out["tiers"][tier] = {
-            "boards": len(calibration),
-            "board_ids": [b.board_id for b in calibration],
-            "statistics": {name: summary(samples[name]) for name in STATISTICS},
-            "frequencies": {name: _frequencies(samples[name]) for name in DISCRETE},
-        }
+        stats = measure(calibration)
+        out["tiers"][tier] = {"boards": len(calibration),
+                              "board_ids": [b.board_id for b in calibration],
+                              **_summaries(stats)}
+        if external is not None:
+            sample = external[tier]
+            out["tiers"][tier]["extended"] = {
+                "pad_range": list(sample.pad_range),
+                "external_boards": [b.name for b in sample.boards],
+                **_summaries(stats + sample.statistics)}
     return out
+
+
+def _summaries(stats: list[BoardStatistics]) -> dict:
+    samples = pooled_samples(stats)
+    return {"statistics": {name: summary(samples[name]) for name in STATISTICS},
+            "frequencies": {name: _frequencies(samples[name]) for name in DISCRETE}}
 
 
 def _frequencies(values: list[float]) -> dict[str, int]:
@@ -131,31 +147,39 @@ def _definitions() -> dict:
                      "for the discrete layers and pads_per_net",
         "ks": "two-sample Kolmogorov-Smirnov distance (sup of the gap between the empirical "
               "CDFs) of the synthetic sample vs the held-out half; target <= 0.15 each",
-        "measure": "cd /work/wt/calib && PYTHONPATH=$PWD /work/main/.venv/bin/python "
-                   "bench/bench_realism.py --d3 /work/d3build --synthetic SET_DIR "
+        "extended": "calibration half + the PCBench boards D3's revalidation dropped "
+                    "(DRC errors or unconnected items) whose terminal pads lie in the tier's "
+                    "range, measured on KiCad 9's save of them "
+                    "(pcbdata.synthetic.external_boards)",
+        "measure": "python bench/bench_realism.py --d3 D3_DIR --synthetic SET_DIR "
                    "--config d2r-b --tier B --split train [--limit 512] [--md T.md]: the KS "
-                   "table vs the held-out half (branch calib; the library side is "
+                   "table vs the held-out half (the library side is "
                    "pcbdata.synthetic.board_statistics: board_statistics(path) -> the seven "
                    "statistics of one board file, pooled_samples, ks_distance)",
     }
 
 
 def ks_table(d3_root: Path, tiers: list[str], synthetic: list[BoardStatistics] | None,
-             half: str = "held-out") -> dict:
+             half: str = "held-out", external: dict | None = None) -> dict:
     """Per tier and statistic: KS distance between the tier's `half` and the synthetic set
     (None: the tier's calibration half against its held-out half, the distance that sampling
-    alone gives), with the 95 % critical value of the two sample sizes."""
+    alone gives), with the 95 % critical value of the two sample sizes. `half` "extended" is
+    the calibration half with `external[tier]`'s boards."""
     table: dict = {}
     for tier in tiers:
         calibration, held_out = halves(d3_tier_boards(d3_root, tier))
-        compared = calibration if half == "calibration" and synthetic is not None else held_out
-        real_stats = measure(compared)
+        if synthetic is None or half == "held-out":
+            real_stats = measure(held_out)
+        else:
+            real_stats = measure(calibration)
+            if half == "extended":
+                real_stats += external[tier].statistics
         our_stats = measure(calibration) if synthetic is None else synthetic
         real = {**pooled_samples(real_stats), **net_shape_samples(real_stats)}
         ours = {**pooled_samples(our_stats), **net_shape_samples(our_stats)}
         names = STATISTICS + NET_SHAPES
         counts = {name: [len(real[name]), len(ours[name])] for name in names}
-        table[tier] = {"boards": len(compared), "counts": counts,
+        table[tier] = {"boards": len(real_stats), "counts": counts,
                        "distances": {name: ks_distance(real[name], ours[name])
                                      for name in names},
                        "critical_95": {name: _critical(*counts[name]) for name in names}}
@@ -308,7 +332,9 @@ def markdown(report: dict) -> str:
     side = (f"`{report['config']}` ({report['synthetic_boards']} boards, split "
             f"`{report['split']}`)" if report["synthetic_boards"]
             else "each tier's calibration half")
-    lines = [f"{side}: KS distance vs the {half} half (95 % critical value); * above the "
+    against = ("the calibration half and the tier-sized PCBench boards D3 dropped"
+               if half == "extended" else f"the {half} half")
+    lines = [f"{side}: KS distance vs {against} (95 % critical value); * above the "
              f"target {KS_TARGET}", "", head,
              "|---|" + "---:|" * len(tiers)]
     for name in STATISTICS + NET_SHAPES:
@@ -339,8 +365,12 @@ def _cell(distance: float | None, critical: float | None) -> str:
 def main(argv: list[str] | None = None) -> None:
     args = _parser().parse_args(argv)
     d3_root = Path(args.d3)
+    if args.half == "extended" and not args.pcbench:
+        raise SystemExit("bench_realism: --half extended needs --pcbench (a PCBench checkout)")
+    external = _external(args, d3_root) if args.pcbench else None
     if args.write_targets:
-        Path(args.write_targets).write_text(json.dumps(targets(d3_root), indent=1) + "\n")
+        text = json.dumps(targets(d3_root, external), indent=1) + "\n"
+        Path(args.write_targets).write_text(text)
         print(f"wrote {args.write_targets}")
         return
     start = time.perf_counter()
@@ -360,11 +390,29 @@ def main(argv: list[str] | None = None) -> None:
     else:
         boards = synthetic_boards(Path(args.synthetic), args.config, args.split, args.limit)
         report.update(config=args.config, split=args.split, synthetic_boards=len(boards),
-                      half=args.half, ks=ks_table(d3_root, args.tier, measure(boards), args.half))
+                      half=args.half, ks=ks_table(d3_root, args.tier, measure(boards), args.half,
+                                                  external))
     if args.difficulty and not args.halves:
         report["difficulty"] = {tier: difficulty(args, d3_root, tier) for tier in args.tier}
     report["seconds"] = round(time.perf_counter() - start, 1)
     _write(args, report, markdown(report))
+
+
+def _external(args, d3_root: Path) -> dict:
+    """Per tier, the dropped PCBench boards of its size (upgraded once into the work folder)."""
+    tiers = TIERS if args.write_targets else args.tier
+    work = Path(args.external_work or Path(args.work) / "external")
+    out = {}
+    for tier in tiers:
+        def say(line: str) -> None:
+            print(line, file=sys.stderr, flush=True)
+        sample = external_sample(d3_root, Path(args.pcbench), tier, work, args.workers, say)
+        failed = "; ".join(f"{name}: {why}" for name, why in sorted(sample.failures.items()))
+        say(f"D3-{tier}: {len(sample.boards)} dropped PCBench boards with "
+            f"{sample.pad_range[0]}-{sample.pad_range[1]} terminal pads ({sample.outside} "
+            f"outside, {len(sample.failures)} not measured{': ' + failed if failed else ''})")
+        out[tier] = sample
+    return out
 
 
 def _write(args, report: dict, text: str) -> None:
@@ -386,9 +434,16 @@ def _parser() -> argparse.ArgumentParser:
                         help="tiers to compare with, e.g. B or A,B,C (default: all)")
     parser.add_argument("--md", help="write the table as Markdown here")
     parser.add_argument("--json", help="write the whole report as JSON here")
-    parser.add_argument("--half", choices=("held-out", "calibration"), default="held-out",
+    parser.add_argument("--half", choices=("held-out", "calibration", "extended"),
+                        default="held-out",
                         help="the tier half to compare with (default: held-out, the SPEC's "
-                             "measure; calibration shows what tuning reached)")
+                             "measure; calibration shows what tuning reached; extended: the "
+                             "calibration half and the dropped PCBench boards, --pcbench)")
+    parser.add_argument("--pcbench", help="a PCBench checkout: adds the boards of each tier's "
+                        "size that D3's revalidation dropped (--half extended, "
+                        "--write-targets)")
+    parser.add_argument("--external-work", help="where the dropped boards are upgraded and "
+                        "kept (default: WORK/external; a rerun reuses them)")
     parser.add_argument("--halves", action="store_true",
                         help="compare each tier's calibration half with its held-out half "
                              "instead of a synthetic set (the distance sampling alone gives)")

@@ -96,7 +96,8 @@ def build_from_snapshot(root: Path, names: list[str], kicad_pool, why: str) -> t
 @pytest.fixture(scope="session")
 def real_subset(tmp_path_factory, kicad_pool):
     """A CI-sized subset of the PCBench snapshot built with the packaged recipe (D3-A, B, C
-    test boards): {"out": the built set, "summary", "names"}. Shared by the curation and
+    test boards): {"out": the built set, "summary", "names", "source": the checkout it was
+    built from}. Shared by the curation and
     environment tests, and by the pytest-xdist workers of one run (built once, by the first
     worker that needs it, while the others wait); skips when the snapshot is absent."""
     if not SHARED_PCBENCH.is_file():
@@ -137,7 +138,7 @@ def _build_real_subset(root: Path, kicad_pool) -> None:
     out = root / "out"
     summary = build(sub, out, load_recipe(), pool=kicad_pool, log=lambda line: None)
     (root / "subset.pickle").write_bytes(
-        pickle.dumps({"out": out, "summary": summary, "names": names}))
+        pickle.dumps({"out": out, "summary": summary, "names": names, "source": sub}))
 
 
 @pytest.fixture(scope="session")

@@ -209,6 +209,23 @@ def process_board(source_path: str, seed: int, compat: dict, keep: dict | None =
         shutil.rmtree(job.work, ignore_errors=True)
 
 
+def upgraded_board(source_path: str, seed: int) -> bytes:
+    """The file KiCad 9 saves from `source_path` (D3's step 1 alone: load, fix duplicate
+    UUIDs, save): legacy boards measured from their own text lose what the old format spells
+    differently (arcs by centre and angle). Raises ValueError naming the failed step."""
+    job = _BoardJob(source_path, seed, {}, None)
+    try:
+        for name, step in (("load", job._load), ("upgrade", job._upgrade)):
+            try:
+                step()
+            except _Failed as exc:
+                raise ValueError(f"{name}: {exc}") from None
+        return job.board_bytes
+    finally:
+        _unload_projects()
+        shutil.rmtree(job.work, ignore_errors=True)
+
+
 class _Failed(Exception):
     """A step failed; the message (after the step's name) is the board's recorded reason."""
 

@@ -2,8 +2,11 @@
 
 Used to compare synthetic boards with the real D3 tiers (`bench/bench_realism.py`,
 docs/realism.md). No KiCad: the file is tokenised here and the Edge.Cuts outline is
-polygonised with shapely, so a thousand boards take seconds and any board file (bare board,
-reference, a PCBench `processed.kicad_pcb`) can be measured.
+polygonised with shapely, so a thousand boards take seconds and any KiCad 6 or later board
+file (bare board, reference) can be measured. A legacy file (many of PCBench's
+`processed.kicad_pcb`) is measured on KiCad 9's save of it, as D3 ships it: its arcs are
+written by centre and angle, which this reader leaves out of the outline (read as text, 29
+of D3-A's 100 boards measure another density; `pcbdata.synthetic.external_boards`).
 
 Definitions (all lengths in mm):
 - **terminal pad**: a pad on a net that has at least two pads on the board (a pad alone on its

@@ -1,0 +1,150 @@
+"""Real boards of a D3 tier's size that D3 itself does not hold: a second calibration sample.
+
+SPEC 2b calibrates a level on its tier's odd rows and measures it on the even ones. On D3-A
+those halves (50 boards each) are further apart than 0.15 in two statistics
+(docs/realism.md, "How much of a distance is noise"), so a fit of the odd rows alone cannot
+tell where the tier lies. PCBench holds more real boards of the same size: those D3's
+revalidation dropped (DRC errors, or unconnected items) are real designs whose part counts,
+outlines and pitches are as real as the kept ones'; only their copper broke a rule. This
+module measures them, so a fit may use them beside the odd rows; the held-out half is never
+touched.
+
+A dropped board belongs to a tier's sample when its terminal pads lie in the tier's range
+(the smallest and largest of the tier's boards). Boards are measured on KiCad 9's save of
+them (`pcbdata.kicad.upgrade.upgraded_board`, in isolated workers), as D3's own boards are:
+a legacy file read as text loses its arcs. Upgraded files are kept in a work folder, so a
+run stopped halfway resumes; a board whose PCBench file is not the one D3's build saw (its
+hash in `curation_report.csv`) is refused, not measured.
+"""
+from __future__ import annotations
+
+import csv
+import os
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pcbdata.core import tree
+from pcbdata.core.hashing import sha256_file
+from pcbdata.curation.corpus import DRC_FAILURE, NOT_CONNECTED
+from pcbdata.kicad.pool import KicadPool
+from pcbdata.spec.recipe import load_recipe
+from pcbdata.synthetic.board_statistics import BoardStatistics, board_statistics
+
+#: Fates of boards that loaded, upgraded and were checked, and failed only the check.
+DROPPED_FATES = (DRC_FAILURE, NOT_CONNECTED)
+UPGRADE_TASK = "pcbdata.kicad.upgrade:upgraded_board"
+#: The seed of the UUIDs KiCad mints while upgrading (no statistic depends on them).
+UPGRADE_SEED = 0
+UPGRADED_FILE = tree.BOARD_FILE
+
+
+@dataclass(frozen=True)
+class ExternalBoard:
+    name: str
+    path: Path
+    statistics: BoardStatistics
+
+
+@dataclass
+class ExternalSample:
+    """The dropped boards of one tier's size, and what became of the others."""
+
+    tier: str
+    pad_range: tuple[int, int]
+    boards: list[ExternalBoard] = field(default_factory=list)
+    #: dropped boards measured whose terminal pads lie outside the tier's range
+    outside: int = 0
+    #: name -> why it could not be measured (missing, changed, KiCad failure)
+    failures: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def statistics(self) -> list[BoardStatistics]:
+        return [b.statistics for b in self.boards]
+
+
+def dropped_boards(d3_root: Path) -> dict[str, str]:
+    """PCBench board name -> the source file's SHA-256 D3's build saw, for every board its
+    revalidation dropped (from the build's `curation_report.csv`)."""
+    path = Path(d3_root) / tree.CURATION_REPORT_CSV
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no curation report (is {d3_root} a D3 build?)")
+    with open(path, newline="", encoding="utf-8") as handle:
+        return {row["name"]: row["source_board_sha256"] for row in csv.DictReader(handle)
+                if row["fate"] in DROPPED_FATES}
+
+
+def tier_pad_range(d3_root: Path, tier: str) -> tuple[int, int]:
+    """The fewest and most terminal pads of the tier's boards (`characteristics.csv`)."""
+    path = Path(d3_root) / tree.CHARACTERISTICS_CSV
+    with open(path, newline="", encoding="utf-8") as handle:
+        pads = [int(row["pads"]) for row in csv.DictReader(handle) if row["tier"] == tier]
+    if not pads:
+        raise ValueError(f"{path}: no board of tier {tier}")
+    return min(pads), max(pads)
+
+
+def external_sample(d3_root: str | Path, pcbench_root: str | Path, tier: str,
+                    work: str | Path, workers: int = 2,
+                    progress: Callable[[str], None] | None = None) -> ExternalSample:
+    """Upgrades (or reuses) every dropped board and keeps those of the tier's size."""
+    d3_root, work = Path(d3_root), Path(work)
+    sample = ExternalSample(tier, tier_pad_range(d3_root, tier))
+    upgraded, sample.failures = upgrade_dropped(d3_root, Path(pcbench_root), work, workers,
+                                                progress)
+    low, high = sample.pad_range
+    for name in sorted(upgraded):
+        stats = board_statistics(upgraded[name])
+        if low <= stats.pads <= high:
+            sample.boards.append(ExternalBoard(name, upgraded[name], stats))
+        else:
+            sample.outside += 1
+    return sample
+
+
+def upgrade_dropped(d3_root: Path, pcbench_root: Path, work: Path, workers: int = 2,
+                    progress: Callable[[str], None] | None = None
+                    ) -> tuple[dict[str, Path], dict[str, str]]:
+    """(name -> upgraded file, name -> failure) over every dropped board; files already in
+    `work` are reused."""
+    layout = load_recipe().source
+    done: dict[str, Path] = {}
+    failures: dict[str, str] = {}
+    todo: list[tuple[str, Path]] = []
+    for name, sha in sorted(dropped_boards(d3_root).items()):
+        source = pcbench_root / layout.boards_dir / name / layout.board_file
+        target = work / name / UPGRADED_FILE
+        if target.is_file():
+            done[name] = target
+        elif not source.is_file():
+            failures[name] = f"{source}: missing"
+        elif sha and sha256_file(source) != sha:
+            failures[name] = f"{source}: not the file D3's build saw (SHA-256 differs)"
+        else:
+            todo.append((name, source))
+    if todo:
+        _upgrade(todo, work, workers, done, failures, progress)
+    return done, failures
+
+
+def _upgrade(todo: list[tuple[str, Path]], work: Path, workers: int, done: dict[str, Path],
+             failures: dict[str, str], progress: Callable[[str], None] | None) -> None:
+    with KicadPool(workers=max(1, min(workers, len(todo))), task_timeout=300) as pool:
+        args = [(str(source), UPGRADE_SEED) for _, source in todo]
+        for count, outcome in enumerate(pool.map(UPGRADE_TASK, args), start=1):
+            name = todo[outcome.index][0]
+            if outcome.ok:
+                done[name] = _write_atomic(work / name / UPGRADED_FILE, outcome.value)
+            else:
+                failures[name] = outcome.error
+            if progress and (count % 25 == 0 or count == len(todo)):
+                progress(f"upgraded {count}/{len(todo)} dropped PCBench boards "
+                         f"({len(failures)} failed)")
+
+
+def _write_atomic(path: Path, data: bytes) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    partial = path.with_name(path.name + ".partial")
+    partial.write_bytes(data)
+    os.replace(partial, path)
+    return path

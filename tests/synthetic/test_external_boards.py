@@ -1,0 +1,101 @@
+"""The dropped PCBench boards of a tier's size (`pcbdata.synthetic.external_boards`): real
+KiCad upgrades of the CI subset's boards, measured as D3's own."""
+from __future__ import annotations
+
+import csv
+import shutil
+
+import pytest
+
+from pcbdata.synthetic import external_boards
+from pcbdata.synthetic.board_statistics import board_statistics
+from pcbdata.synthetic.external_boards import (
+    DROPPED_FATES,
+    UPGRADE_TASK,
+    dropped_boards,
+    external_sample,
+    tier_pad_range,
+)
+
+
+def _report(d3_root):
+    with open(d3_root / "curation_report.csv", newline="", encoding="utf-8") as handle:
+        return {row["name"]: row for row in csv.DictReader(handle)}
+
+
+@pytest.fixture(scope="module")
+def sample_a(real_subset, tmp_path_factory):
+    work = tmp_path_factory.mktemp("external")
+    lines: list[str] = []
+    sample = external_sample(real_subset["out"], real_subset["source"], "A", work,
+                             progress=lines.append)
+    return {"sample": sample, "work": work, "lines": lines}
+
+
+def test_every_dropped_board_is_measured_and_sorted_by_size(real_subset, sample_a):
+    sample = sample_a["sample"]
+    report = _report(real_subset["out"])
+    dropped = {name for name, row in report.items() if row["fate"] in DROPPED_FATES}
+    assert dropped and set(dropped_boards(real_subset["out"])) == dropped
+    assert not sample.failures
+    assert len(sample.boards) + sample.outside == len(dropped)
+    low, high = sample.pad_range
+    assert (low, high) == tier_pad_range(real_subset["out"], "A")
+    assert sample.boards, "the subset's smallest boards include dropped ones of tier A's size"
+    for board in sample.boards:
+        assert board.name in dropped and low <= board.statistics.pads <= high
+        assert board.path == sample_a["work"] / board.name / "board.kicad_pcb"
+    assert sample_a["lines"][-1].startswith(f"upgraded {len(dropped)}/{len(dropped)}")
+
+
+def test_an_upgraded_board_measures_as_the_d3_build_s_own(real_subset, kicad_pool, tmp_path):
+    """The upgrade task is D3's step 1: on a kept board its file measures exactly as the
+    board D3 ships (a legacy file read as text would not: its arcs have no mid point)."""
+    report = _report(real_subset["out"])
+    kept = sorted((row["board_id"], name) for name, row in report.items()
+                  if row["fate"] == "kept")[:3]
+    for board_id, name in kept:
+        source = real_subset["source"] / "PCBs" / name / "processed.kicad_pcb"
+        upgraded = tmp_path / f"{board_id}.kicad_pcb"
+        upgraded.write_bytes(kicad_pool.call(UPGRADE_TASK, str(source), 0))
+        shipped = next((real_subset["out"]).glob(f"d3-*/full/{board_id}/board.kicad_pcb"))
+        assert board_statistics(upgraded) == board_statistics(shipped), name
+
+
+def test_a_rerun_reuses_the_upgraded_files(real_subset, sample_a, monkeypatch):
+    def no_kicad(*args, **kwargs):
+        raise AssertionError("KiCad started although every board was upgraded already")
+
+    monkeypatch.setattr(external_boards, "KicadPool", no_kicad)
+    again = external_sample(real_subset["out"], real_subset["source"], "A", sample_a["work"])
+    assert [b.name for b in again.boards] == [b.name for b in sample_a["sample"].boards]
+    assert [b.statistics for b in again.boards] == sample_a["sample"].statistics
+
+
+def test_a_changed_or_missing_source_is_refused_with_its_reason(real_subset, tmp_path):
+    names = sorted(dropped_boards(real_subset["out"]))
+    changed, missing = names[0], names[1]
+    source = tmp_path / "pcbench"
+    (source / "PCBs").mkdir(parents=True)
+    for folder in (real_subset["source"] / "PCBs").iterdir():
+        if folder.name in (changed, missing):
+            shutil.copytree(folder, source / "PCBs" / folder.name)
+        else:
+            (source / "PCBs" / folder.name).symlink_to(folder.resolve())
+    board = source / "PCBs" / changed / "processed.kicad_pcb"
+    board.write_bytes(board.read_bytes() + b"\n")
+    (source / "PCBs" / missing / "processed.kicad_pcb").unlink()
+    sample = external_sample(real_subset["out"], source, "B", tmp_path / "work")
+    assert sample.failures[changed].endswith("not the file D3's build saw (SHA-256 differs)")
+    assert sample.failures[missing].endswith("processed.kicad_pcb: missing")
+    assert len(sample.boards) + sample.outside + 2 == len(names)
+
+
+def test_not_a_d3_build_is_named(tmp_path):
+    with pytest.raises(FileNotFoundError, match="curation_report.csv: no curation report"):
+        dropped_boards(tmp_path)
+    (tmp_path / "characteristics.csv").write_text("board_id,name,nets,components,pads,layers,"
+                                                  "tier,in_test\n")
+    with pytest.raises(ValueError, match="no board of tier A"):
+        tier_pad_range(tmp_path, "A")
+
