@@ -404,15 +404,17 @@ def _external(args, d3_root: Path) -> dict:
     work = Path(args.external_work or Path(args.work) / "external")
     out = {}
     for tier in tiers:
-        def say(line: str) -> None:
-            print(line, file=sys.stderr, flush=True)
-        sample = external_sample(d3_root, Path(args.pcbench), tier, work, args.workers, say)
+        sample = external_sample(d3_root, Path(args.pcbench), tier, work, args.workers, _say)
         failed = "; ".join(f"{name}: {why}" for name, why in sorted(sample.failures.items()))
-        say(f"D3-{tier}: {len(sample.boards)} dropped PCBench boards with "
+        _say(f"D3-{tier}: {len(sample.boards)} dropped PCBench boards with "
             f"{sample.pad_range[0]}-{sample.pad_range[1]} terminal pads ({sample.outside} "
             f"outside, {len(sample.failures)} not measured{': ' + failed if failed else ''})")
         out[tier] = sample
     return out
+
+
+def _say(line: str) -> None:
+    print(line, file=sys.stderr, flush=True)
 
 
 def _write(args, report: dict, text: str) -> None:
