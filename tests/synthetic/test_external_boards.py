@@ -49,17 +49,31 @@ def test_every_dropped_board_is_measured_and_sorted_by_size(real_subset, sample_
 
 
 def test_an_upgraded_board_measures_as_the_d3_build_s_own(real_subset, kicad_pool, tmp_path):
-    """The upgrade task is D3's step 1: on a kept board its file measures exactly as the
-    board D3 ships (a legacy file read as text would not: its arcs have no mid point)."""
+    """The upgrade task is D3's step 1: on kept boards whose legacy text measures another
+    outline (arcs by centre and angle), its file measures exactly as the board D3 ships."""
     report = _report(real_subset["out"])
-    kept = sorted((row["board_id"], name) for name, row in report.items()
-                  if row["fate"] == "kept")[:3]
-    for board_id, name in kept:
+    checked = 0
+    for name, row in sorted(report.items(), key=lambda item: item[1]["board_id"]):
+        if row["fate"] != "kept":
+            continue
         source = real_subset["source"] / "PCBs" / name / "processed.kicad_pcb"
-        upgraded = tmp_path / f"{board_id}.kicad_pcb"
+        shipped = board_statistics(next(real_subset["out"].glob(
+            f"d3-*/full/{row['board_id']}/board.kicad_pcb")))
+        if _same_density(board_statistics(source), shipped):
+            continue
+        upgraded = tmp_path / "upgraded.kicad_pcb"
         upgraded.write_bytes(kicad_pool.call(UPGRADE_TASK, str(source), 0))
-        shipped = next((real_subset["out"]).glob(f"d3-*/full/{board_id}/board.kicad_pcb"))
-        assert board_statistics(upgraded) == board_statistics(shipped), name
+        assert board_statistics(upgraded) == shipped, name
+        checked += 1
+        if checked == 2:
+            return
+    pytest.fail("no kept board of the subset whose legacy text measures another density")
+
+
+def _same_density(a, b) -> bool:
+    if a.pad_density is None or b.pad_density is None:
+        return a.pad_density == b.pad_density
+    return abs(a.pad_density - b.pad_density) <= 1e-9 * b.pad_density
 
 
 def test_a_rerun_reuses_the_upgraded_files(real_subset, sample_a, monkeypatch):
