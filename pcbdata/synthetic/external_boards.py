@@ -70,7 +70,12 @@ def dropped_boards(d3_root: Path) -> dict[str, str]:
     if not path.is_file():
         raise FileNotFoundError(f"{path}: no curation report (is {d3_root} a D3 build?)")
     with open(path, newline="", encoding="utf-8") as handle:
-        return {row["name"]: row["source_board_sha256"] for row in csv.DictReader(handle)
+        reader = csv.DictReader(handle)
+        missing = {"name", "fate"} - set(reader.fieldnames or ())
+        if missing:
+            columns = ", ".join(sorted(missing))
+            raise ValueError(f"{path}: not a curation report (no column {columns})")
+        return {row["name"]: row.get("source_board_sha256") or "" for row in reader
                 if row["fate"] in DROPPED_FATES}
 
 

@@ -108,6 +108,10 @@ def test_a_changed_or_missing_source_is_refused_with_its_reason(real_subset, tmp
 def test_not_a_d3_build_is_named(tmp_path):
     with pytest.raises(FileNotFoundError, match="curation_report.csv: no curation report"):
         dropped_boards(tmp_path)
+    (tmp_path / "curation_report.csv").write_text("board,reason\nx,y\n")
+    with pytest.raises(ValueError, match="curation_report.csv: not a curation report "
+                                         "\\(no column fate, name\\)"):
+        dropped_boards(tmp_path)
     (tmp_path / "characteristics.csv").write_text("board_id,name,nets,components,pads,layers,"
                                                   "tier,in_test\n")
     with pytest.raises(ValueError, match="no board of tier A"):
