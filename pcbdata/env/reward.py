@@ -7,7 +7,7 @@ track_dangling, net_conflict; "evaluation": without those warnings) is the evalu
 from __future__ import annotations
 
 from pcbdata.evaluator import metrics
-from pcbdata.evaluator.metrics import COUNTINGS, Weights
+from pcbdata.evaluator.metrics import COUNTINGS, Weights, unconnected_from_clusters
 
 __all__ = ["COUNTINGS", "EVALUATOR_COUNTING", "Telescope", "board_state", "canonical", "counted",
            "unconnected_from_clusters"]
@@ -25,14 +25,6 @@ def canonical(violations: list[dict]) -> list[dict]:
     """Violations in a canonical order: type, positions, nets (then severity, section)."""
     return sorted(violations, key=lambda v: (v["type"], [tuple(p) for p in v.get("positions", [])],
                                              list(v["nets"]), v["severity"], v["section"]))
-
-
-def unconnected_from_clusters(clusters: dict[str, int]) -> list[dict]:
-    """Unconnected items as pad clusters give them (one per missing connection of a net), for
-    steps without KiCad's DRC (option drc="terminal")."""
-    return [{"type": "unconnected_items", "severity": "error", "section": "unconnected",
-             "nets": [net], "no_net_item": False, "positions": []}
-            for net, g in sorted(clusters.items()) for _ in range(max(0, g - 1))]
 
 
 class Telescope:

@@ -22,7 +22,9 @@ from pcbdata.executors import Executor, TaskPool, resolve
 #: 3.0.0: Pot., f and Phi by the strict count; WL geometric (arcs from their three points);
 #: copper off the board or on non-copper layers, and oversized files, make a rollout invalid;
 #: a board with no valid rollout counts Pot. 0; reports name the set they scored.
-EVALUATOR_VERSION = "3.0.0"
+#: 3.1.0: U (and f's unconnected items) from the pad clusters where KiCad's DRC list of
+#: unconnected items stops (499): only boards with more missing connections score otherwise.
+EVALUATOR_VERSION = "3.1.0"
 MEASURE = "pcbdata.kicad.scoring:measure"
 SCORE = "pcbdata.evaluator.core:score_task"
 

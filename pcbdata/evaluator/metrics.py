@@ -13,6 +13,8 @@ import math
 from collections import Counter
 from dataclasses import asdict, dataclass
 
+from pcbdata.kicad.drc_report import UNCONNECTED_LIST_CAP
+
 #: The two ways of counting DRC violations (SPEC 4). "evaluation": error-severity violations
 #: (as the project resolves them) and every unconnected item; DRV and CP (the published
 #: Reference rows keep CP 1.00, DRV 0.00 only with it). "strict": the same plus the warnings of
@@ -114,12 +116,35 @@ def potential(net_count: int, unconnected: int, penalty: float, wl_mm: float, vi
     return math.fsum([bonus, -unconnected, -penalty, -weights.lw * wl_mm, -weights.lv * vias])
 
 
+def unconnected_from_clusters(clusters: dict[str, int]) -> list[dict]:
+    """Unconnected items as pad clusters give them: one per missing connection of a net
+    (G - 1 for a net whose pads sit on G copper clusters; SPEC 4's U summed over nets)."""
+    return [{"type": "unconnected_items", "severity": "error", "section": "unconnected",
+             "nets": [net], "no_net_item": False, "positions": []}
+            for net, g in sorted(clusters.items()) for _ in range(max(0, g - 1))]
+
+
+def every_unconnected(measurement: dict) -> list[dict]:
+    """The measurement's violations with every unconnected item. KiCad's DRC lists at most
+    `UNCONNECTED_LIST_CAP` of them, so a list that long is replaced by the pad clusters'
+    items (a board with 1,616 missing connections would otherwise count U = 499, and routing
+    its first thousand would gain nothing). Shorter lists are KiCad's, as they are."""
+    violations = measurement["violations"]
+    listed = sum(1 for v in violations if v["section"] == "unconnected")
+    if listed < UNCONNECTED_LIST_CAP or "clusters" not in measurement:
+        return violations
+    return ([v for v in violations if v["section"] != "unconnected"]
+            + unconnected_from_clusters(measurement["clusters"]))
+
+
 def board_state(measurement: dict, weights: Weights = DEFAULT_WEIGHTS,
                 counting: str = "strict") -> dict:
     """DRV, U, f, WL, Via and Phi of one measured board under `counting` (see `COUNTINGS`).
-    Needs only `violations`, `wl_mm`, `vias` and `net_count` of the measurement."""
-    counted = counted_violations(measurement["violations"], counting)
-    unconnected = unconnected_count(measurement["violations"])
+    Needs `violations`, `wl_mm`, `vias` and `net_count` of the measurement, and `clusters`
+    when KiCad's list of unconnected items is full (`every_unconnected`)."""
+    violations = every_unconnected(measurement)
+    counted = counted_violations(violations, counting)
+    unconnected = unconnected_count(violations)
     penalty = drc_penalty(counted, weights)
     return {
         "drv": len(counted),
@@ -137,7 +162,7 @@ def board_state(measurement: dict, weights: Weights = DEFAULT_WEIGHTS,
 def board_counts(measurement: dict) -> dict:
     """The raw counts of one measured board that every figure derives from: U, WL, Via, N and,
     per counting, the counted violations per net (f) and per type (DRV)."""
-    violations = measurement["violations"]
+    violations = every_unconnected(measurement)
     counts: dict = {"unconnected": unconnected_count(violations), "wl": measurement["wl_mm"],
                     "via": measurement["vias"], "net_count": measurement["net_count"]}
     for counting in COUNTINGS:

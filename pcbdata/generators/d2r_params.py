@@ -9,14 +9,15 @@ from pcbdata.generators import footprints as fp
 from pcbdata.generators.base import KICAD_HOLE_CLEARANCE_MM, KICAD_MIN_ANNULAR_MM, MAX_LENGTH_MM
 from pcbdata.generators.d2r_layout import OUTLINE_SHAPES
 from pcbdata.generators.params import GeneratorParams
+from pcbdata.kicad.drc_report import UNCONNECTED_LIST_CAP
 from pcbdata.model.board import nm_to_mm
 
 # Plated holes of the library (headers 1.0, JST PH 0.75, terminal blocks 1.3 mm): a class's
 # hole minimum applies to pad holes too, so via drills stay at or below the smallest.
 SMALLEST_PAD_DRILL_MM = 0.75
-# KiCad 9's DRC report lists at most 499 unconnected items (measured), so the build's check
-# could not confirm a board with more missing connections than that.
-KICAD_MAX_UNCONNECTED = 499
+# KiCad 9's DRC report lists at most 499 unconnected items, so the build's check could not
+# confirm a board with more missing connections than that.
+KICAD_MAX_UNCONNECTED = UNCONNECTED_LIST_CAP
 _PROBABILITY_TABLES = ("part_mix", "passive_sizes", "outline_mix", "signal_net_sizes")
 _FRACTIONS = ("passive_size_consistency", "back_side_fraction",
               "four_layer_fraction", "exposed_pad_fraction", "mounting_hole_fraction",
