@@ -47,15 +47,31 @@ def test_a_full_list_is_replaced_by_the_clusters_items():
     assert every_unconnected({"violations": listed}) is listed  # no clusters: nothing to add
 
 
+def test_the_build_check_expects_a_full_list_past_the_cap():
+    from pcbdata.kicad.drc_report import DrcReport, Violation
+    from pcbdata.synthetic.build import check_problem
+
+    def report(listed: int) -> DrcReport:
+        item = Violation("unconnected_items", "Missing connection", "error", "", "unconnected")
+        return DrcReport([item] * listed, {})
+
+    assert check_problem(report(UNCONNECTED_LIST_CAP), MISSING) is None
+    assert check_problem(report(12), 12) is None
+    assert check_problem(report(UNCONNECTED_LIST_CAP - 1), MISSING) == (
+        "DRC found no other violations and 498 unconnected items (expected 505, of which "
+        "KiCad lists at most 499)")
+    assert "(expected 12)" in check_problem(report(11), 12)
+
+
 @pytest.fixture(scope="module")
 def many_nets(tmp_path_factory):
-    """(instance folder, set folder, config) of one bare board with 505 missing connections
-    (no KiCad check: KiCad's DRC could not confirm more than 499)."""
+    """(instance folder, set folder, config) of one bare board with 505 missing connections,
+    built with the KiCad check (which confirms a full list of 499)."""
     from pcbdata.builders import SyntheticOptions, build_d2
     from pcbdata.spec.configs import d2_config
 
     root = tmp_path_factory.mktemp("many-nets") / "set"
-    options = SyntheticOptions(splits=["test"], count=1, check=False, publish=False, workers=1,
+    options = SyntheticOptions(splits=["test"], count=1, check=True, publish=False, workers=1,
                                log=lambda *_: None)
     build_d2(root, "default", MANY_NETS, options)
     config = d2_config("default", MANY_NETS).name
