@@ -40,9 +40,9 @@ from pcbdata.synthetic.board_statistics import (  # noqa: E402
     BoardStatistics,
     board_statistics,
     ks_distance,
-    net_shape_samples,
     pooled_samples,
     summary,
+    weighted_samples,
 )
 from pcbdata.synthetic.external_boards import external_sample  # noqa: E402
 from pcbdata.synthetic.sampling_noise import (  # noqa: E402
@@ -107,8 +107,8 @@ def targets(d3_root: Path, external: dict | None = None) -> dict:
             sample = external[tier]
             out["tiers"][tier]["extended"] = {
                 "pad_range": list(sample.pad_range),
-                "external_boards": [b.name for b in sample.boards],
-                **_summaries(stats + sample.statistics)}
+                "external_boards": dict(zip([b.name for b in sample.boards],
+                                            sample.weights(stats), strict=True))}
     return out
 
 
@@ -149,8 +149,9 @@ def _definitions() -> dict:
               "CDFs) of the synthetic sample vs the held-out half; target <= 0.15 each",
         "extended": "calibration half + the PCBench boards D3's revalidation dropped "
                     "(DRC errors or unconnected items) whose terminal pads lie in the tier's "
-                    "range, measured on KiCad 9's save of them "
-                    "(pcbdata.synthetic.external_boards)",
+                    "range, measured on KiCad 9's save of them, each with the weight that "
+                    "gives them the calibration half's pads distribution (name -> weight; "
+                    "pcbdata.synthetic.external_boards)",
         "measure": "python bench/bench_realism.py --d3 D3_DIR --synthetic SET_DIR "
                    "--config d2r-b --tier B --split train [--limit 512] [--md T.md]: the KS "
                    "table vs the held-out half (the library side is "
@@ -164,26 +165,49 @@ def ks_table(d3_root: Path, tiers: list[str], synthetic: list[BoardStatistics] |
     """Per tier and statistic: KS distance between the tier's `half` and the synthetic set
     (None: the tier's calibration half against its held-out half, the distance that sampling
     alone gives), with the 95 % critical value of the two sample sizes. `half` "extended" is
-    the calibration half with `external[tier]`'s boards."""
+    the calibration half with `external[tier]`'s boards weighted to its pads
+    (`pads_matched_weights`); without a synthetic set, that sample against the held-out half."""
     table: dict = {}
     for tier in tiers:
         calibration, held_out = halves(d3_tier_boards(d3_root, tier))
-        if synthetic is None or half == "held-out":
-            real_stats = measure(held_out)
+        cal_stats, held_stats = measure(calibration), measure(held_out)
+        tier_side = (cal_stats, [1.0] * len(cal_stats))
+        if half == "extended":
+            sample = external[tier]
+            tier_side = (cal_stats + sample.statistics,
+                         tier_side[1] + sample.weights(cal_stats))
+        held_side = (held_stats, [1.0] * len(held_stats))
+        if synthetic is None:
+            real, ours = held_side, tier_side
         else:
-            real_stats = measure(calibration)
-            if half == "extended":
-                real_stats += external[tier].statistics
-        our_stats = measure(calibration) if synthetic is None else synthetic
-        real = {**pooled_samples(real_stats), **net_shape_samples(real_stats)}
-        ours = {**pooled_samples(our_stats), **net_shape_samples(our_stats)}
-        names = STATISTICS + NET_SHAPES
-        counts = {name: [len(real[name]), len(ours[name])] for name in names}
-        table[tier] = {"boards": len(real_stats), "counts": counts,
-                       "distances": {name: ks_distance(real[name], ours[name])
-                                     for name in names},
-                       "critical_95": {name: _critical(*counts[name]) for name in names}}
+            real = held_side if half == "held-out" else tier_side
+            ours = (synthetic, [1.0] * len(synthetic))
+        table[tier] = _distances(real, ours)
     return table
+
+
+def _distances(real: tuple[list, list[float]], ours: tuple[list, list[float]]) -> dict:
+    """KS distances and critical values of two weighted board samples (stats, weights); a
+    weighted sample's size is its effective one, (sum w)^2 / sum w^2."""
+    real_samples, our_samples = weighted_samples(*real), weighted_samples(*ours)
+    names = STATISTICS + NET_SHAPES
+    out: dict = {"boards": len(real[0]), "counts": {}, "distances": {}, "critical_95": {}}
+    for name in names:
+        (a, wa), (b, wb) = real_samples[name], our_samples[name]
+        counts = [_effective_size(wa), _effective_size(wb)]
+        out["counts"][name] = counts
+        out["distances"][name] = ks_distance(a, b, _unless_ones(wa), _unless_ones(wb))
+        out["critical_95"][name] = _critical(*counts)
+    return out
+
+
+def _effective_size(weights: list[float]) -> int:
+    total = sum(weights)
+    return round(total * total / sum(w * w for w in weights)) if total else 0
+
+
+def _unless_ones(weights: list[float]) -> list[float] | None:
+    return None if all(w == 1.0 for w in weights) else weights
 
 
 def _critical(n: int, m: int) -> float | None:
@@ -331,9 +355,10 @@ def markdown(report: dict) -> str:
                                           for t in tiers) + " |"
     side = (f"`{report['config']}` ({report['synthetic_boards']} boards, split "
             f"`{report['split']}`)" if report["synthetic_boards"]
-            else "each tier's calibration half")
-    against = ("the calibration half and the tier-sized PCBench boards D3 dropped"
-               if half == "extended" else f"the {half} half")
+            else "each tier's calibration half"
+            + (" with the dropped PCBench boards (weighted)" if report.get("extended") else ""))
+    against = ("the calibration half and the tier-sized PCBench boards D3 dropped (weighted "
+               "to its pads)" if half == "extended" else f"the {half} half")
     lines = [f"{side}: KS distance vs {against} (95 % critical value); * above the "
              f"target {KS_TARGET}", "", head,
              "|---|" + "---:|" * len(tiers)]
@@ -383,7 +408,8 @@ def main(argv: list[str] | None = None) -> None:
         return
     if args.halves:
         report.update(config="calibration half", split="odd rows", synthetic_boards=0,
-                      ks=ks_table(d3_root, args.tier, None))
+                      extended=args.half == "extended",
+                      ks=ks_table(d3_root, args.tier, None, args.half, external))
     elif not args.synthetic or not args.config:
         raise SystemExit("bench_realism: give --synthetic and --config (or --halves, --noise or "
                          "--write-targets)")

@@ -368,18 +368,51 @@ def net_shape_samples(stats: Iterable[BoardStatistics]) -> dict[str, list[float]
     return out
 
 
-def ks_distance(a: Sequence[float] | NDArray, b: Sequence[float] | NDArray) -> float | None:
+def weighted_samples(stats: Sequence[BoardStatistics], weights: Sequence[float]
+                     ) -> dict[str, tuple[list[float], list[float]]]:
+    """Per statistic and net shape, (values, weights): every value carries its board's
+    weight (each net of a board, for pads per net)."""
+    out: dict[str, tuple[list[float], list[float]]] = {
+        name: ([], []) for name in STATISTICS + NET_SHAPES}
+    for one, weight in zip(stats, weights, strict=True):
+        for sample in (one.values(), net_shape_samples([one])):
+            for name, values in sample.items():
+                out[name][0].extend(values)
+                out[name][1].extend([weight] * len(values))
+    return out
+
+
+def ks_distance(a: Sequence[float] | NDArray, b: Sequence[float] | NDArray,
+                a_weights: Sequence[float] | None = None,
+                b_weights: Sequence[float] | None = None) -> float | None:
     """Two-sample Kolmogorov-Smirnov distance: the largest gap between the two empirical
-    distribution functions (None if a sample is empty)."""
+    distribution functions (None if a sample is empty). With weights, a value's step in its
+    sample's function is its share of the sample's weight."""
     import numpy as np
 
     if len(a) == 0 or len(b) == 0:
         return None
+    if a_weights is not None or b_weights is not None:
+        at = np.concatenate([np.asarray(a, dtype=float), np.asarray(b, dtype=float)])
+        return float(np.max(np.abs(_weighted_cdf(a, a_weights, at)
+                                   - _weighted_cdf(b, b_weights, at))))
     xa, xb = np.sort(np.asarray(a, dtype=float)), np.sort(np.asarray(b, dtype=float))
     at = np.concatenate([xa, xb])
     fa = np.searchsorted(xa, at, side="right") / len(xa)
     fb = np.searchsorted(xb, at, side="right") / len(xb)
     return float(np.max(np.abs(fa - fb)))
+
+
+def _weighted_cdf(values, weights, at):
+    import numpy as np
+
+    x = np.asarray(values, dtype=float)
+    w = np.ones_like(x) if weights is None else np.asarray(weights, dtype=float)
+    if w.shape != x.shape or np.any(w < 0) or not w.sum() > 0:
+        raise ValueError("weights must be one non-negative number per value, not all 0")
+    order = np.argsort(x, kind="stable")
+    steps = np.concatenate([[0.0], np.cumsum(w[order])]) / w.sum()
+    return steps[np.searchsorted(x[order], at, side="right")]
 
 
 QUANTILES = (5, 10, 25, 50, 75, 90, 95)

@@ -62,6 +62,48 @@ class ExternalSample:
     def statistics(self) -> list[BoardStatistics]:
         return [b.statistics for b in self.boards]
 
+    def weights(self, calibration: list[BoardStatistics]) -> list[float]:
+        """`pads_matched_weights` of these boards against `calibration`."""
+        return pads_matched_weights(calibration, self.statistics)
+
+
+#: Pads bins of the weights: quantiles of the calibration half (quintiles: 10 boards a bin on
+#: D3-A's 50).
+WEIGHT_BINS = 5
+
+
+def pads_matched_weights(calibration: list[BoardStatistics], external: list[BoardStatistics],
+                         bins: int = WEIGHT_BINS) -> list[float]:
+    """A weight per external board that gives the external sample the calibration half's
+    distribution of terminal pads (a tier is cut by pads; the dropped boards' pads follow
+    another law): bins at the calibration half's pads quantiles, a board's weight the bin's
+    share of calibration boards over its share of external ones, scaled to sum to the
+    number of external boards (0 outside every bin, or when no bin holds one)."""
+    import numpy as np
+
+    if not calibration or not external:
+        return [0.0] * len(external)
+    cal = np.array([s.pads for s in calibration], dtype=float)
+    ext = np.array([s.pads for s in external], dtype=float)
+    edges = np.unique(np.quantile(cal, np.linspace(0, 1, bins + 1)))
+    if edges.size < 2:  # every calibration board has the same pads
+        return [len(external) / max(1, int((ext == cal[0]).sum())) * float(p == cal[0])
+                for p in ext]
+
+    def shares(pads):
+        index = np.clip(np.searchsorted(edges, pads, side="right") - 1, 0, edges.size - 2)
+        inside = (pads >= edges[0]) & (pads <= edges[-1])
+        counts = np.bincount(index[inside], minlength=edges.size - 1) / pads.size
+        return index, inside, counts
+
+    _, _, cal_share = shares(cal)
+    index, inside, ext_share = shares(ext)
+    raw = np.where(inside, cal_share[index] / np.where(ext_share[index] > 0,
+                                                      ext_share[index], 1.0), 0.0)
+    if raw.sum() == 0:
+        return [0.0] * len(external)
+    return [float(w) for w in raw * len(external) / raw.sum()]
+
 
 def dropped_boards(d3_root: Path) -> dict[str, str]:
     """PCBench board name -> the source file's SHA-256 D3's build saw, for every board its

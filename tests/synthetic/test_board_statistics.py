@@ -7,12 +7,14 @@ from collections import Counter
 import pytest
 
 from pcbdata.synthetic.board_statistics import (
+    BoardStatistics,
     board_statistics,
     ks_distance,
     parse_sexpr,
     pooled_samples,
     statistics_of,
     summary,
+    weighted_samples,
 )
 
 # A 40 x 30 mm board with a 10 x 10 notch out of its top-right corner, a rounded (r = 5)
@@ -137,6 +139,38 @@ def test_ks_distance():
     assert ks_distance([1, 2, 3, 4], [3, 4, 5, 6]) == 0.5
     assert ks_distance([2, 2, 2, 3], [2, 3, 3, 3]) == 0.5  # ties: the CDFs jump together
     assert ks_distance([], [1]) is None
+
+
+def test_weighted_ks_distance_is_the_repeated_sample_s():
+    """A weight of k counts a value k times; equal weights change nothing."""
+    import random
+
+    rng = random.Random(7)
+    for _ in range(50):
+        a = [rng.randint(0, 9) for _ in range(rng.randint(1, 12))]
+        b = [rng.randint(0, 9) for _ in range(rng.randint(1, 12))]
+        counts = [rng.randint(0, 3) for _ in a]
+        counts[0] = max(counts[0], 1)
+        repeated = [x for x, k in zip(a, counts) for _ in range(k)]
+        assert ks_distance(a, b, counts) == pytest.approx(ks_distance(repeated, b), abs=1e-12)
+        assert ks_distance(a, b, [0.5] * len(a), [2.0] * len(b)) == pytest.approx(
+            ks_distance(a, b), abs=1e-12)
+    with pytest.raises(ValueError, match="one non-negative number per value"):
+        ks_distance([1, 2], [3], [1.0])
+    with pytest.raises(ValueError, match="not all 0"):
+        ks_distance([1, 2], [3], [0.0, 0.0])
+
+
+def test_weighted_samples_give_each_net_its_board_s_weight():
+    one = BoardStatistics(nets=2, pads=5, components=2, layers=2, pads_per_net=(2, 3),
+                          outline_area_mm2=100.0)
+    two = BoardStatistics(nets=1, pads=2, components=1, layers=4, pads_per_net=(2,),
+                          outline_area_mm2=None)
+    samples = weighted_samples([one, two], [1.0, 0.25])
+    assert samples["pads_per_net"] == ([2.0, 3.0, 2.0], [1.0, 1.0, 0.25])
+    assert samples["pad_density"] == ([5.0], [1.0])  # no outline, no density
+    assert samples["layers"] == ([2.0, 4.0], [1.0, 0.25])
+    assert samples["two_pad_net_share"] == ([0.5, 1.0], [1.0, 0.25])
 
 
 def test_summary_quantiles():

@@ -8,12 +8,13 @@ import shutil
 import pytest
 
 from pcbdata.synthetic import external_boards
-from pcbdata.synthetic.board_statistics import board_statistics
+from pcbdata.synthetic.board_statistics import BoardStatistics, board_statistics
 from pcbdata.synthetic.external_boards import (
     DROPPED_FATES,
     UPGRADE_TASK,
     dropped_boards,
     external_sample,
+    pads_matched_weights,
     tier_pad_range,
 )
 
@@ -103,6 +104,25 @@ def test_a_changed_or_missing_source_is_refused_with_its_reason(real_subset, tmp
     assert sample.failures[changed].endswith("not the file D3's build saw (SHA-256 differs)")
     assert sample.failures[missing].endswith("processed.kicad_pcb: missing")
     assert len(sample.boards) + sample.outside + 2 == len(names)
+
+
+def _pads(*counts: int) -> list[BoardStatistics]:
+    return [BoardStatistics(nets=1, pads=n, components=1, layers=2, pads_per_net=(n,),
+                            outline_area_mm2=None) for n in counts]
+
+
+def test_the_weights_give_the_external_boards_the_calibration_half_s_pads():
+    calibration = _pads(*range(10, 30))  # 20 boards, 4 a quintile
+    external = _pads(10, 11, 12, 13, 14, 15, 28, 40)  # many small ones, one out of range
+    weights = pads_matched_weights(calibration, external)
+    assert weights[-1] == 0.0 and sum(weights) == pytest.approx(len(external))
+    # quintiles 10-13, 14-17, 18-21, 22-25, 26-29: the three that hold external boards carry
+    # equal weight (18-25 hold none)
+    assert weights[:4] == pytest.approx([weights[0]] * 4)  # 10-13: one quintile, 4 boards
+    assert weights[4] == pytest.approx(weights[5]) == pytest.approx(2 * weights[0])
+    assert weights[6] == pytest.approx(4 * weights[0])  # the top quintile's only board
+    assert pads_matched_weights([], external) == [0.0] * 8
+    assert pads_matched_weights(_pads(20, 20), _pads(20, 21)) == [2.0, 0.0]
 
 
 def test_not_a_d3_build_is_named(tmp_path):
