@@ -15,6 +15,11 @@ them (`pcbdata.kicad.upgrade.upgraded_board`, in isolated workers), as D3's own 
 a legacy file read as text loses its arcs. Upgraded files are kept in a work folder, so a
 run stopped halfway resumes; a board whose PCBench file is not the one D3's build saw (its
 hash in `curation_report.csv`) is refused, not measured.
+
+The dropped boards are no draw of the tier: their pads follow another law than the tier's
+(which is cut by pads), so `pads_matched_weights` gives each a weight that brings them to the
+calibration half's pads distribution; distances to the extended sample are weighted
+(`board_statistics.ks_distance` with weights).
 """
 from __future__ import annotations
 
