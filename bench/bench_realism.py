@@ -44,7 +44,7 @@ from pcbdata.synthetic.board_statistics import (  # noqa: E402
     summary,
     weighted_samples,
 )
-from pcbdata.synthetic.external_boards import external_sample  # noqa: E402
+from pcbdata.synthetic.external_boards import external_samples  # noqa: E402
 from pcbdata.synthetic.sampling_noise import (  # noqa: E402
     NoiseFloor,
     calibration_copy_distances,
@@ -196,7 +196,7 @@ def _distances(real: tuple[list, list[float]], ours: tuple[list, list[float]]) -
         (a, wa), (b, wb) = real_samples[name], our_samples[name]
         counts = [_effective_size(wa), _effective_size(wb)]
         out["counts"][name] = counts
-        out["distances"][name] = ks_distance(a, b, _unless_ones(wa), _unless_ones(wb))
+        out["distances"][name] = ks_distance(a, b, wa, wb)
         out["critical_95"][name] = _critical(*counts)
     return out
 
@@ -204,10 +204,6 @@ def _distances(real: tuple[list, list[float]], ours: tuple[list, list[float]]) -
 def _effective_size(weights: list[float]) -> int:
     total = sum(weights)
     return round(total * total / sum(w * w for w in weights)) if total else 0
-
-
-def _unless_ones(weights: list[float]) -> list[float] | None:
-    return None if all(w == 1.0 for w in weights) else weights
 
 
 def _critical(n: int, m: int) -> float | None:
@@ -426,16 +422,14 @@ def main(argv: list[str] | None = None) -> None:
 
 def _external(args, d3_root: Path) -> dict:
     """Per tier, the dropped PCBench boards of its size (upgraded once into the work folder)."""
-    tiers = TIERS if args.write_targets else args.tier
+    tiers = list(TIERS) if args.write_targets else args.tier
     work = Path(args.external_work or Path(args.work) / "external")
-    out = {}
-    for tier in tiers:
-        sample = external_sample(d3_root, Path(args.pcbench), tier, work, args.workers, _say)
+    out = external_samples(d3_root, Path(args.pcbench), tiers, work, args.workers, _say)
+    for tier, sample in out.items():
         failed = "; ".join(f"{name}: {why}" for name, why in sorted(sample.failures.items()))
         _say(f"D3-{tier}: {len(sample.boards)} dropped PCBench boards with "
-            f"{sample.pad_range[0]}-{sample.pad_range[1]} terminal pads ({sample.outside} "
-            f"outside, {len(sample.failures)} not measured{': ' + failed if failed else ''})")
-        out[tier] = sample
+             f"{sample.pad_range[0]}-{sample.pad_range[1]} terminal pads ({sample.outside} "
+             f"outside, {len(sample.failures)} not measured{': ' + failed if failed else ''})")
     return out
 
 

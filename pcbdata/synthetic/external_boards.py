@@ -24,12 +24,12 @@ calibration half's pads distribution; distances to the extended sample are weigh
 from __future__ import annotations
 
 import csv
-import os
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from pcbdata.core import tree
+from pcbdata.core.fsutil import write_atomic
 from pcbdata.core.hashing import sha256_file
 from pcbdata.curation.corpus import DRC_FAILURE, NOT_CONNECTED
 from pcbdata.kicad.pool import KicadPool
@@ -91,9 +91,8 @@ def pads_matched_weights(calibration: list[BoardStatistics], external: list[Boar
     cal = np.array([s.pads for s in calibration], dtype=float)
     ext = np.array([s.pads for s in external], dtype=float)
     edges = np.unique(np.quantile(cal, np.linspace(0, 1, bins + 1)))
-    if edges.size < 2:  # every calibration board has the same pads
-        return [len(external) / max(1, int((ext == cal[0]).sum())) * float(p == cal[0])
-                for p in ext]
+    if edges.size < 2:  # every calibration board has the same pads: one bin of one value
+        edges = np.repeat(edges, 2)
 
     def shares(pads):
         index = np.clip(np.searchsorted(edges, pads, side="right") - 1, 0, edges.size - 2)
@@ -140,18 +139,28 @@ def external_sample(d3_root: str | Path, pcbench_root: str | Path, tier: str,
                     work: str | Path, workers: int = 2,
                     progress: Callable[[str], None] | None = None) -> ExternalSample:
     """Upgrades (or reuses) every dropped board and keeps those of the tier's size."""
-    d3_root, work = Path(d3_root), Path(work)
-    sample = ExternalSample(tier, tier_pad_range(d3_root, tier))
-    upgraded, sample.failures = upgrade_dropped(d3_root, Path(pcbench_root), work, workers,
-                                                progress)
-    low, high = sample.pad_range
-    for name in sorted(upgraded):
-        stats = board_statistics(upgraded[name])
-        if low <= stats.pads <= high:
-            sample.boards.append(ExternalBoard(name, upgraded[name], stats))
-        else:
-            sample.outside += 1
-    return sample
+    return external_samples(d3_root, pcbench_root, [tier], work, workers, progress)[tier]
+
+
+def external_samples(d3_root: str | Path, pcbench_root: str | Path, tiers: list[str],
+                     work: str | Path, workers: int = 2,
+                     progress: Callable[[str], None] | None = None
+                     ) -> dict[str, ExternalSample]:
+    """`external_sample` of several tiers, each dropped board upgraded and measured once."""
+    d3_root = Path(d3_root)
+    samples = {tier: ExternalSample(tier, tier_pad_range(d3_root, tier)) for tier in tiers}
+    upgraded, failures = upgrade_dropped(d3_root, Path(pcbench_root), Path(work), workers,
+                                         progress)
+    measured = [(name, board_statistics(upgraded[name])) for name in sorted(upgraded)]
+    for sample in samples.values():
+        sample.failures = dict(failures)
+        low, high = sample.pad_range
+        for name, stats in measured:
+            if low <= stats.pads <= high:
+                sample.boards.append(ExternalBoard(name, upgraded[name], stats))
+            else:
+                sample.outside += 1
+    return samples
 
 
 def upgrade_dropped(d3_root: Path, pcbench_root: Path, work: Path, workers: int = 2,
@@ -160,6 +169,9 @@ def upgrade_dropped(d3_root: Path, pcbench_root: Path, work: Path, workers: int 
     """(name -> upgraded file, name -> failure) over every dropped board; files already in
     `work` are reused."""
     layout = load_recipe().source
+    if not (pcbench_root / layout.boards_dir).is_dir():
+        raise FileNotFoundError(f"{pcbench_root}: not a PCBench checkout (no "
+                                f"{layout.boards_dir}/ folder)")
     done: dict[str, Path] = {}
     failures: dict[str, str] = {}
     todo: list[tuple[str, Path]] = []
@@ -186,17 +198,11 @@ def _upgrade(todo: list[tuple[str, Path]], work: Path, workers: int, done: dict[
         for count, outcome in enumerate(pool.map(UPGRADE_TASK, args), start=1):
             name = todo[outcome.index][0]
             if outcome.ok:
-                done[name] = _write_atomic(work / name / UPGRADED_FILE, outcome.value)
+                done[name] = work / name / UPGRADED_FILE
+                write_atomic(done[name], outcome.value)
             else:
                 failures[name] = outcome.error
             if progress and (count % 25 == 0 or count == len(todo)):
                 progress(f"upgraded {count}/{len(todo)} dropped PCBench boards "
                          f"({len(failures)} failed)")
 
-
-def _write_atomic(path: Path, data: bytes) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    partial = path.with_name(path.name + ".partial")
-    partial.write_bytes(data)
-    os.replace(partial, path)
-    return path

@@ -125,6 +125,12 @@ def test_the_weights_give_the_external_boards_the_calibration_half_s_pads():
     assert pads_matched_weights(_pads(20, 20), _pads(20, 21)) == [2.0, 0.0]
 
 
+def test_not_a_pcbench_checkout_is_named(real_subset, tmp_path):
+    with pytest.raises(FileNotFoundError, match="not a PCBench checkout \\(no PCBs/ folder\\)"):
+        external_sample(real_subset["out"], tmp_path, "A", tmp_path / "work")
+    assert not (tmp_path / "work").exists()
+
+
 def test_not_a_d3_build_is_named(tmp_path):
     with pytest.raises(FileNotFoundError, match="curation_report.csv: no curation report"):
         dropped_boards(tmp_path)
