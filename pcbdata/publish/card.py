@@ -18,6 +18,7 @@ from pcbdata.publish.layout import (
     default_config,
     split_key,
 )
+from pcbdata.publish.real_boards import beside_picture, tier_real_board
 from pcbdata.publish.rows import is_redistributable
 from pcbdata.spec.recipe import tier_rules
 
@@ -231,7 +232,7 @@ def card_text(manifest: dict, state: dict) -> str:
         _columns(manifest, configs),
         _how_made(manifest, configs, families),
         _SCORING_SECTION,
-        _pictures(state, configs),
+        _pictures(manifest, state, configs),
         _LIMITATIONS_SECTION,
         _licence(header["license"]),
         _CITATION_SECTION,
@@ -388,13 +389,20 @@ _SCORING_SECTION = [
     "(`pcbdata eval`).", ""]
 
 
-def _pictures(state: dict, configs: list[str]) -> list[str]:
+def _pictures(manifest: dict, state: dict, configs: list[str]) -> list[str]:
     out = ["## Pictures", ""]
     for config in configs:
         pics = state["configs"][config].get("pictures", [])
-        if pics:
+        real = tier_real_board(manifest["configs"][config])
+        beside = beside_picture(config, real) if real else None
+        row = [p for p in pics if p != beside]
+        if row:
             out += [f"**{config}**", "",
-                    " ".join(f"![{config} {Path(p).stem}]({p})" for p in pics), ""]
+                    " ".join(f"![{config} {Path(p).stem}]({p})" for p in row), ""]
+        if real and beside in pics:
+            out += [f"A board of `{config}` (left) beside a real board of the tier it is "
+                    f"calibrated to (right): {real.caption()}.", "",
+                    f"![{config} beside a D3-{real.tier} board]({beside})", ""]
     for extra in state.get("pictures", []):
         out += [f"![{Path(extra).stem}]({extra})", ""]
     return out

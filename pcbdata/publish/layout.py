@@ -7,7 +7,8 @@ A published set is the built tree plus:
                                                  its manifest entry, shard names, sizes and hashes
     ATTRIBUTION.md                               per-board source and licence (sets with D3 only)
     <config>/<split>-NNNNN-of-NNNNN.parquet      the rows
-    pictures/<config>-pads.svg, pictures/<config>-<board_id>.svg
+    pictures/<config>/pads.svg, pictures/<config>/<board_id>.svg, pictures/d3-tiers-pads.svg
+    pictures/<config>/beside-d3-<tier>.svg       D2R: a board beside a real board of its tier
 
 A set whose card is missing is not published (or was being re-published when it was stopped):
 `load` refuses it with a clear message and `verify` reports it.

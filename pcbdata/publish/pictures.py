@@ -1,6 +1,7 @@
 """Pictures for the dataset card: pad-count histograms (plain SVG written here) and board
 previews: the task with its ratsnest next to the reference routing (`pcbdata.core.drawing`, from
-records KiCad reads in workers, `pcbdata.kicad.board_records`)."""
+records KiCad reads in workers, `pcbdata.kicad.board_records`), or beside a picture already drawn
+(a D2R board beside a real board of its tier, `pcbdata.publish.real_boards`)."""
 from __future__ import annotations
 
 import base64
@@ -10,8 +11,10 @@ from dataclasses import dataclass
 from html import escape
 from pathlib import Path
 
+import numpy as np
+
 from pcbdata.board_render import Picture, draw_picture, read_boards
-from pcbdata.core.drawing import png_bytes
+from pcbdata.core.drawing import png_bytes, side_by_side
 from pcbdata.kicad import KicadPool
 from pcbdata.publish.layout import write_file
 from pcbdata.spec.configs import D3_TIERS
@@ -183,6 +186,16 @@ def preview_svg(png: bytes, width: int, height: int, title: str) -> str:
             f'</svg>\n')
 
 
+@dataclass(frozen=True)
+class PreviewJob:
+    """One card picture: `panels` (title, board file) drawn side by side into `out` (an SVG),
+    then `beside`, a picture already drawn (a real board of the tier beside a D2R board)."""
+
+    panels: list[tuple[str, Path]]
+    out: Path
+    beside: np.ndarray | None = None
+
+
 class PreviewRenderer:
     """Draws board previews (`pcbdata.core.drawing`) from records that KiCad reads in worker
     processes (`pcbdata.kicad.board_records`), one pool per publication; workers start only
@@ -198,17 +211,20 @@ class PreviewRenderer:
     def __exit__(self, *exc) -> None:
         self._pool.close()
 
-    def render(self, jobs: list[tuple[list[tuple[str, Path]], Path]]) -> list[str | None]:
-        """Draws each (panels, output SVG) pair, the panels (title, board file) side by side;
-        returns, per pair, None or the reason it could not."""
-        paths = sorted({path for panels, _ in jobs for _, path in panels})
+    def render(self, jobs: list[PreviewJob]) -> list[str | None]:
+        """Draws each job, its panels side by side (then its `beside` picture); returns, per
+        job, None or the reason it could not."""
+        paths = sorted({path for job in jobs for _, path in job.panels})
         records = read_boards(paths, self._pool)
         problems: list[str | None] = []
-        for panels, out_path in jobs:
-            drawn = draw_picture(Picture(out_path.stem, panels), records)
+        for job in jobs:
+            out_path = job.out
+            drawn = draw_picture(Picture(out_path.stem, job.panels), records)
             if isinstance(drawn, str):
                 problems.append(drawn)
                 continue
+            if job.beside is not None:
+                drawn = side_by_side([drawn, job.beside])
             height, width = drawn.shape[:2]
             write_file(out_path, preview_svg(png_bytes(drawn), width, height, out_path.stem))
             problems.append(None)

@@ -42,6 +42,7 @@ from pcbdata.publish.layout import (
     suggest,
     write_file,
 )
+from pcbdata.publish.real_boards import beside_picture, real_picture, tier_real_board
 from pcbdata.publish.rows import (
     KNOWN_FACTS,
     is_redistributable,
@@ -103,7 +104,17 @@ def _up_to_date(root: Path, manifest: dict, config: str, state: dict) -> bool:
             if (not path.is_file() or path.stat().st_size != info["bytes"]
                     or sha256_file(path) != info["sha256"]):
                 return False
-    return all((root / p).is_file() for p in entry.get("pictures", []))
+    return (all((root / p).is_file() for p in entry.get("pictures", []))
+            and _has_real_board_beside(config, manifest["configs"][config], entry))
+
+
+def _has_real_board_beside(config: str, cfg: dict, entry: dict) -> bool:
+    """False for a D2R config published with board previews but without its board beside a
+    real one (published before cards had it)."""
+    real = tier_real_board(cfg)
+    pics = entry.get("pictures", [])
+    previews = [p for p in pics if Path(p).name != "pads.svg"]
+    return real is None or not previews or beside_picture(config, real) in pics
 
 
 def _write_split(root: Path, stage: Path, config: str, cfg: dict, split: str,
@@ -168,9 +179,15 @@ def _stage_pictures(root: Path, stage: Path, config: str, cfg: dict, previews: i
                     renderer: pictures.PreviewRenderer) -> tuple[list[str], list[str]]:
     made = _stage_histogram(stage, config, cfg)
     jobs, rels = [], []
-    for board_id, panels in _preview_sources(root, config, cfg, previews):
+    sources = _preview_sources(root, config, cfg, previews)
+    for board_id, panels in sources:
         rels.append(f"{PICTURES_DIR}/{config}/{board_id}.svg")
-        jobs.append((panels, stage / rels[-1]))
+        jobs.append(pictures.PreviewJob(panels, stage / rels[-1]))
+    real = tier_real_board(cfg)
+    if real is not None and sources:
+        _, panels = sources[len(sources) // 2]  # the middle preview by pad count
+        rels.append(beside_picture(config, real))
+        jobs.append(pictures.PreviewJob(panels[:1], stage / rels[-1], real_picture(real)))
     notes = []
     for rel, problem in zip(rels, renderer.render(jobs), strict=True):
         if problem:

@@ -3,6 +3,8 @@
 - `presets/d1.toml`, `presets/d2_levels.toml`: the versioned generator presets (D1, D2 levels);
 - `recipes/d3.toml`: the versioned D3 curation recipe;
 - `releases/<config>.json.gz`: the manifest of every released default set.
+- `real_boards/`: the real board of each D3 tier pictured beside a D2R level on its card;
+- `policy/`: the shipped learned policy and its model card.
 
 `resource_path(*parts)` gives a file's path; nothing here imports the rest of pcbdata.
 """

@@ -45,6 +45,10 @@ def test_build_writes_the_level_and_rebuilds_byte_identically(tmp_path, capsys):
     assert "(footprint" in rows[0]["board"] and rows[0]["n_components"] >= 2
     card = (tmp_path / "a" / "README.md").read_text()
     assert "### D2R: realistic synthetic boards" in card and "pictures/d2r-a/" in card
+    # One board beside a real board of the tier, with the real board's attribution.
+    assert "![d2r-a beside a D3-A board](pictures/d2r-a/beside-d3-a.svg)" in card
+    assert "`0057_tepmachcha_tepmachcha` of D3-A, by DAI-Maker-Lab" in card
+    assert (tmp_path / "a" / "pictures" / "d2r-a" / "beside-d3-a.svg").stat().st_size > 10_000
 
 
 def test_overrides_make_a_custom_config_recorded_in_the_manifest(tmp_path):
