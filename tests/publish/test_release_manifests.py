@@ -14,8 +14,10 @@ from pcbdata.publish.manifests import SUFFIX, compare, read_release
 from pcbdata.spec.configs import get_config
 
 MANIFESTS = Path(__file__).resolve().parents[2] / "pcbdata" / "resources" / "releases"
+SYNTHETIC_FAMILIES = ("d1", "d2", "d2r")
 SYNTHETIC = sorted(p for p in MANIFESTS.glob(f"*{SUFFIX}")
-                   if read_release(p)["configs"][p.name[: -len(SUFFIX)]]["family"] in ("d1", "d2"))
+                   if read_release(p)["configs"][p.name[: -len(SUFFIX)]]["family"]
+                   in SYNTHETIC_FAMILIES)
 SMALL = ["validation", "test"]
 
 
@@ -35,7 +37,8 @@ def rebuilt(tmp_path_factory):
 
 def test_the_released_default_sets_are_committed():
     names = {_config(p) for p in SYNTHETIC}
-    assert {"d1-g10", "d1-g50", "d1-g100", "d1-g200", "d1-g500", "d2"} <= names
+    assert {"d1-g10", "d1-g50", "d1-g100", "d1-g200", "d1-g500", "d2",
+            "d2r-a", "d2r-b", "d2r-c"} <= names
     for path in SYNTHETIC:
         release = read_release(path)
         entry = release["configs"][_config(path)]

@@ -141,8 +141,8 @@ def test_a_config_without_a_pinned_release_is_an_error(tmp_path, capsys):
     assert _verify(root, capsys)[0] == 0
     code, out = _verify(root, capsys, "--release")
     assert code == 1
-    assert ("d2-medium: no pinned release of this config in pcbdata (pinned: d2, d1-g10, d1-g50, "
-            "d1-g100, d1-g200, d1-g500, d3-a, d3-b, d3-c); "
+    assert ("d2-medium: no pinned release of this config in pcbdata (pinned: d2, d2r-a, d2r-b, "
+            "d2r-c, d1-g10, d1-g50, d1-g100, d1-g200, d1-g500, d3-a, d3-b, d3-c); "
             "it cannot be checked with --release") in out
     with pytest.raises(UserError, match="d2-medium: no pinned release"):
         pcbdata.load("d2-medium", split="test", root=root, release=True)
