@@ -220,6 +220,11 @@ def png_bytes(image: np.ndarray) -> bytes:
     return out.getvalue()
 
 
+def png_image(data: bytes) -> np.ndarray:
+    """The RGB array of PNG bytes (`png_bytes`' inverse)."""
+    return np.asarray(Image.open(io.BytesIO(data)).convert("RGB"), dtype=np.uint8)
+
+
 CHART_W, CHART_H, CHART_PAD = 360, 200, 30
 
 

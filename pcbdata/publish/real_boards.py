@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import io
 import sys
 import tomllib
 from collections.abc import Sequence
@@ -21,10 +20,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from PIL import Image
 
 from pcbdata.board_render import Picture, draw_picture, read_boards
-from pcbdata.core.drawing import png_bytes
+from pcbdata.core.drawing import png_bytes, png_image
 from pcbdata.core.errors import UserError
 from pcbdata.core.tree import BOARD_FILE, board_dir
 from pcbdata.kicad import KicadPool
@@ -78,8 +76,7 @@ def beside_picture(config: str, board: RealBoard) -> str:
 
 def real_picture(board: RealBoard) -> np.ndarray:
     """The shipped picture of `board` (RGB array, its title bar included)."""
-    data = resource_path(_FOLDER, board.picture_name).read_bytes()
-    return np.asarray(Image.open(io.BytesIO(data)).convert("RGB"), dtype=np.uint8)
+    return png_image(resource_path(_FOLDER, board.picture_name).read_bytes())
 
 
 def draw_real_boards(d3_root: Path, out: Path, pool: KicadPool,
