@@ -113,7 +113,7 @@ def _has_real_board_beside(config: str, cfg: dict, entry: dict) -> bool:
     real one (published before cards had it)."""
     real = tier_real_board(cfg)
     pics = entry.get("pictures", [])
-    previews = [p for p in pics if Path(p).name != "pads.svg"]
+    previews = [p for p in pics if p != _histogram_picture(config)]
     return real is None or not previews or beside_picture(config, real) in pics
 
 
@@ -204,10 +204,14 @@ def _stage_histogram(stage: Path, config: str, cfg: dict) -> list[str]:
             for b in splits[s].get("boards", {}).values() if board_fact(b, "n_pads") is not None]
     if not pads:
         return []
-    rel = f"{PICTURES_DIR}/{config}/pads.svg"
+    rel = _histogram_picture(config)
     title = f"{config}: pad count per board ({', '.join(hist_splits)}, {len(pads)} boards)"
     write_file(stage / rel, pictures.histogram_svg({config: pads}, title))
     return [rel]
+
+
+def _histogram_picture(config: str) -> str:
+    return f"{PICTURES_DIR}/{config}/pads.svg"
 
 
 def _preview_sources(root: Path, config: str, cfg: dict,

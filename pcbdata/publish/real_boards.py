@@ -24,6 +24,7 @@ import numpy as np
 from pcbdata.board_render import Picture, draw_picture, read_boards
 from pcbdata.core.drawing import png_bytes, png_image
 from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import write_atomic
 from pcbdata.core.tree import BOARD_FILE, board_dir
 from pcbdata.kicad import KicadPool
 from pcbdata.publish.layout import PICTURES_DIR
@@ -94,17 +95,17 @@ def draw_real_boards(d3_root: Path, out: Path, pool: KicadPool,
             raise UserError(f"{path}: sha256 {digest}, real_boards.toml names "
                             f"{boards[tier].board_sha256}: another D3 build")
     records = read_boards(sorted(paths.values()), pool)
-    written = []
-    for tier, path in paths.items():
+    pictures = {}
+    for tier, path in paths.items():  # all drawn before any is written: none or every one
         board = boards[tier]
         drawn = draw_picture(Picture(board.board_id, [(f"D3-{tier} {board.board_id}", path)]),
                              records)
         if isinstance(drawn, str):
             raise UserError(f"{path}: cannot be drawn ({drawn})")
-        out.mkdir(parents=True, exist_ok=True)
-        (out / board.picture_name).write_bytes(png_bytes(drawn))
-        written.append(out / board.picture_name)
-    return written
+        pictures[out / board.picture_name] = png_bytes(drawn)
+    for target, data in pictures.items():
+        write_atomic(target, data)
+    return list(pictures)
 
 
 def main(argv: list[str] | None = None) -> int:
