@@ -80,8 +80,9 @@ def build_from_snapshot(root: Path, names: list[str], kicad_pool, why: str) -> t
     """The D3 set built (packaged recipe) from only these PCBench folders, unpacked under
     `root`: (set folder, build summary). Skips, saying `why`, without the snapshot."""
     if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"{why}: built from the PCBench snapshot at {SHARED_PCBENCH}, absent on "
-                    f"this machine")
+        from tests.helpers import skip_without_snapshot
+        skip_without_snapshot(f"{why}: built from the PCBench snapshot at {SHARED_PCBENCH}, "
+                              f"absent on this machine")
     from pcbdata.curation.build import build
     from pcbdata.spec.recipe import load_recipe
 
@@ -101,8 +102,9 @@ def real_subset(tmp_path_factory, kicad_pool):
     environment tests, and by the pytest-xdist workers of one run (built once, by the first
     worker that needs it, while the others wait); skips when the snapshot is absent."""
     if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"real-corpus tests need the PCBench snapshot at {SHARED_PCBENCH} "
-                    f"(absent on this machine)")
+        from tests.helpers import skip_without_snapshot
+        skip_without_snapshot(f"real-corpus tests need the PCBench snapshot at {SHARED_PCBENCH} "
+                              f"(absent on this machine)")
     root = _run_wide_temp(tmp_path_factory) / "pcbench0"
     root.mkdir(exist_ok=True)
     with open(root.parent / "pcbench0.lock", "w") as lock:

@@ -1,9 +1,25 @@
-"""Small helpers shared by tests: writing boards and reading them back with sexpdata."""
+"""Small helpers shared by tests: writing boards and reading them back with sexpdata, and the
+one way a test skips for want of the PCBench snapshot."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
+from typing import NoReturn
 
+import pytest
 import sexpdata
+
+#: Set to 1 (CI: `.ci/run`) and a test that needs the PCBench snapshot fails instead of skipping.
+REQUIRE_SNAPSHOT = "PCBDATA_REQUIRE_SNAPSHOT"
+
+
+def skip_without_snapshot(why: str) -> NoReturn:
+    """Skips the calling test (or fixture), saying `why`: the PCBench snapshot, or boards built
+    from it, are not here. Fails it with the same message when PCBDATA_REQUIRE_SNAPSHOT=1, so a
+    run that must have the snapshot cannot pass by skipping."""
+    if os.environ.get(REQUIRE_SNAPSHOT) == "1":
+        pytest.fail(f"{why} ({REQUIRE_SNAPSHOT}=1: the snapshot is required)", pytrace=False)
+    pytest.skip(why)
 
 
 def _head(node) -> str | None:

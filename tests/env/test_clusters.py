@@ -5,10 +5,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
-
 from pcbdata.core.tree import PROJECT_FILE, REFERENCE_FILE, RULES_FILE
 from pcbdata.kicad.pool import KicadPool
+from tests.helpers import skip_without_snapshot
 
 
 def _references(root: Path) -> list[Path]:
@@ -18,7 +17,7 @@ def _references(root: Path) -> list[Path]:
 def test_env_clusters_are_the_evaluators_on_routed_real_boards(d3_set):
     folders = _references(Path(d3_set))[:16]
     if not folders:
-        pytest.skip(f"{d3_set}: no D3 reference boards")
+        skip_without_snapshot(f"{d3_set}: no D3 reference boards")
     jobs = [(str(f / REFERENCE_FILE), str(f / PROJECT_FILE),
              str(f / RULES_FILE) if (f / RULES_FILE).is_file() else None) for f in folders]
     with KicadPool(workers=2, task_timeout=300) as pool:

@@ -12,6 +12,7 @@ from pcbdata.agents.scripted import ScriptedAgent
 from pcbdata.env.reward import EVALUATOR_COUNTING, Telescope
 from pcbdata.env.types import MARK_OBSTACLES, NET_SELECT, WALKAROUND
 from tests.env.agents_for_tests import StopsEarly
+from tests.helpers import skip_without_snapshot
 
 
 def test_telescope_sums_to_the_potential_gain():
@@ -108,7 +109,7 @@ def test_d3_summed_reward_equals_pot(d3_set, kicad_pool, tmp_path):
     from pcbdata.evaluator import Evaluator
 
     if not any((d3_set / "d3-a" / "test").glob("*/board.kicad_pcb")):
-        pytest.skip("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
+        skip_without_snapshot("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
     env = gym.make("pcbdata/Route-d3-a-v2", root=str(d3_set), drc="terminal", max_steps=60,
                    counting=EVALUATOR_COUNTING)
     try:
@@ -185,7 +186,7 @@ def test_an_early_end_pays_the_final_drc_d3(d3_set, kicad_pool, tmp_path):
     import gymnasium as gym
 
     if not any((d3_set / "d3-a" / "test").glob("*/board.kicad_pcb")):
-        pytest.skip("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
+        skip_without_snapshot("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
     episodes = []
     for drc in ("step", "terminal"):
         env = gym.make("pcbdata/Route-d3-a-v2", root=str(d3_set), drc=drc)

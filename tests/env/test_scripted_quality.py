@@ -12,6 +12,7 @@ import pytest
 from pcbdata.agents.d1 import D1Agent
 from pcbdata.agents.rollout import run_episode
 from pcbdata.agents.scripted import ScriptedAgent
+from tests.helpers import skip_without_snapshot
 
 GEOMETRY_VIOLATIONS = {"clearance", "shorting_items", "tracks_crossing", "copper_edge_clearance",
                        "hole_clearance", "hole_to_hole"}
@@ -96,7 +97,7 @@ def test_d3_a_scripted_boards_have_no_geometry_violation(d3_set):
     import pcbdata.env  # noqa: F401
 
     if not any((d3_set / "d3-a" / "test").glob("*/board.kicad_pcb")):
-        pytest.skip("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
+        skip_without_snapshot("needs a built D3 set with d3-a test boards: PCBDATA_D3_SET=<set>")
     env = gym.make("pcbdata/Route-d3-a-v2", root=str(d3_set), drc="terminal", max_steps=80)
     try:
         for board_id in env.unwrapped.source.board_ids[:3]:

@@ -7,8 +7,6 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import pytest
-
 from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE, RULES_FILE
 from pcbdata.evaluator.metrics import STRICT_WARNINGS
 from pcbdata.kicad.step_drc import (
@@ -17,6 +15,7 @@ from pcbdata.kicad.step_drc import (
     static_violations,
     step_project_text,
 )
+from tests.helpers import skip_without_snapshot
 
 
 def whole_drc(board: str, instance: str, folder: str) -> list[dict]:
@@ -93,7 +92,7 @@ def _board_with_static_violations(d3_set: Path, kicad_pool, tmp_path: Path) -> s
         whole = outcome.value
         if static_violations(whole) and len(_counted(whole)) < len(whole):
             return Path(instance).name
-    pytest.skip("no D3-A test board of this set has violations of a static type")
+    skip_without_snapshot("no D3-A test board of this set has violations of a static type")
 
 
 def test_step_drc_equals_a_whole_drc_after_every_step(d3_set, kicad_pool, tmp_path):

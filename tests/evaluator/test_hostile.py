@@ -19,6 +19,7 @@ from pcbdata.baselines.routing import rollout_plans
 from pcbdata.baselines.specctra import freeroute_available
 from pcbdata.testing.sets import write_set
 from tests.conftest import SHARED_PCBENCH
+from tests.helpers import skip_without_snapshot
 
 D3_BOARD = "NavigationThing_NavigationThingBacklight"  # D3-A; 23 tracks, one past the edge
 SEGMENT = re.compile(r'\(segment\s+\(start ([-\d.]+) ([-\d.]+)\)\s+\(end ([-\d.]+) ([-\d.]+)\)'
@@ -63,7 +64,7 @@ def boards(tmp_path_factory, kicad_pool, evaluator, request):
             root = tmp_path_factory.mktemp(f"hostile-{name}")
             if name == "d3":
                 if not SHARED_PCBENCH.is_file():
-                    pytest.skip(f"needs the PCBench snapshot at {SHARED_PCBENCH}")
+                    skip_without_snapshot(f"needs the PCBench snapshot at {SHARED_PCBENCH}")
                 instance, routed = _d3_reference(root, kicad_pool)
             else:
                 if not freeroute_available():

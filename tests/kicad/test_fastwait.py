@@ -18,6 +18,7 @@ from pcbdata.kicad import fastwait
 from pcbdata.testing.drc import drc_parity, with_straight_tracks
 from pcbdata.testing.sets import write_board
 from tests.conftest import SHARED_PCBENCH
+from tests.helpers import skip_without_snapshot
 
 D2_SAMPLE = range(0, 128, 4)  # 32 of the 128 D2 test boards
 D3_SAMPLE = 6  # the smallest real boards of the snapshot with at least MIN_TRACKS tracks
@@ -104,8 +105,8 @@ def _smallest_real_boards(count: int) -> list[str]:
 @needs_library
 def test_same_violations_on_real_d3_boards(tmp_path):
     if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"real-corpus parity needs the PCBench snapshot at {SHARED_PCBENCH} "
-                    f"(absent on this machine)")
+        skip_without_snapshot(f"real-corpus parity needs the PCBench snapshot at "
+                              f"{SHARED_PCBENCH} (absent on this machine)")
     names = _smallest_real_boards(D3_SAMPLE * 40)
     subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(tmp_path), *names], check=True)
     with_tracks = [str(tmp_path / n) for n in names if (tmp_path / n).read_text(

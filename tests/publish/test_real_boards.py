@@ -21,6 +21,7 @@ from pcbdata.publish.real_boards import (
 )
 from pcbdata.resources import resource_path
 from pcbdata.spec.presets import d2r_levels
+from tests.helpers import skip_without_snapshot
 
 
 def test_every_level_has_its_tiers_real_board_with_attribution():
@@ -47,7 +48,7 @@ def test_the_shipped_picture_is_the_one_drawn_from_the_d3_board(real_subset, kic
     d3 = real_subset["out"]
     path = board_dir(d3, "d3-a", "full", board.board_id) / BOARD_FILE
     if not path.is_file():
-        pytest.skip(f"{board.board_id} is not in the CI subset of PCBench")
+        skip_without_snapshot(f"{board.board_id} is not in the CI subset of PCBench")
     assert hashlib.sha256(path.read_bytes()).hexdigest() == board.board_sha256
     written = draw_real_boards(d3, tmp_path / "out", kicad_pool, tiers=["A"])
     shipped = resource_path("real_boards", board.picture_name).read_bytes()

@@ -190,9 +190,11 @@ def pcbench_boards(tmp_path_factory):
     import subprocess
 
     from tests.conftest import SHARED_PCBENCH
+    from tests.helpers import skip_without_snapshot
 
     if not SHARED_PCBENCH.is_file():
-        pytest.skip(f"needs the PCBench snapshot at {SHARED_PCBENCH} (absent on this machine)")
+        skip_without_snapshot(f"needs the PCBench snapshot at {SHARED_PCBENCH} (absent on this "
+                              f"machine)")
     root = tmp_path_factory.mktemp("pcbench-few")
     members = [f"PCBs/{name}/*" for name in PCBENCH_BOARDS]
     subprocess.run(["tar", "-xJf", str(SHARED_PCBENCH), "-C", str(root), "--wildcards",
