@@ -240,6 +240,7 @@ class _BoardJob:
         self.board: Any = None   # the loaded board, until saved upgraded
         self.bare: Any = None    # the board the DRC checked, stripped into the bare board
         self.board_bytes = b""   # the upgraded board file: the reference
+        self.upgraded_path = ""  # where KiCad's upgraded save wrote it (with its project)
         self.project: dict = {}  # the project KiCad saved with it
         self.project_text = ""   # the patched project, as shipped
         self.check_path = ""
@@ -285,13 +286,17 @@ class _BoardJob:
         up_project = os.path.join(up_dir, PROJECT_FILE)
         if not os.path.isfile(up_project):
             raise _Failed("KiCad saved no project file")
+        self.upgraded_path = up_board
         with open(up_board, "rb") as handle:
             self.board_bytes = handle.read()
         with open(up_project, encoding="utf-8") as handle:
             self.project = json.load(handle)
 
     def _compat(self) -> None:
-        before = sha256_bytes(self.board_bytes)
+        """SPEC 3 step 2: patches the project KiCad saved beside the upgraded board, and checks
+        that the board file on disk is the same bytes after the pass as KiCad wrote them (the
+        reference ships as read after the pass)."""
+        before = sha256_file(self.upgraded_path)
         spacing = None
         clearance = default_clearance(self.project)
         if not clearance:
@@ -302,15 +307,25 @@ class _BoardJob:
                 spacing = probe
         patched = patch_project(self.project, self.compat, spacing)
         self.project_text = dumps_project(patched)
+        self.board_bytes = self._patch_beside_board()
+        after = sha256_bytes(self.board_bytes)
         skip_checks = (self.keep or {}).get("skip_warning_checks", ())
         self.check_path = _stage(os.path.join(self.work, "check"), self.board_bytes,
                                  dumps_project(check_project(patched, skip_checks)))
-        after = sha256_file(self.check_path)
         self.result["compat"] = {"board_sha256_before": before, "board_sha256_after": after,
                                  "board_identical": before == after,
                                  "stored_clearance": clearance, "observed_spacing": spacing}
         if before != after:
             raise _Failed("the board file changed during the project pass")
+
+    def _patch_beside_board(self) -> bytes:
+        """Writes the patched project over the one KiCad saved beside the upgraded board;
+        returns the board file as it is on disk afterwards."""
+        folder = os.path.dirname(self.upgraded_path)
+        with open(os.path.join(folder, PROJECT_FILE), "w", encoding="utf-8") as handle:
+            handle.write(self.project_text)
+        with open(self.upgraded_path, "rb") as handle:
+            return handle.read()
 
     def _drc(self) -> bool:
         """Checks the board; False (stop) when the recipe's thresholds reject it."""

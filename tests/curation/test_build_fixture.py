@@ -13,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from pcbdata.core.hashing import sha256_file
+from pcbdata.core.tree import D3_STATE_DIR, REFERENCE_FILE
 from tests.curation.corpus_fixture import EXPECTED_FATES, LEGACY
 
 REPO = Path(__file__).resolve().parents[2]
@@ -66,6 +67,22 @@ def test_board_bytes_identical_across_compat_pass_recorded(fixture_build):
     processed = [b for b in doc["boards"] if b["fate"] in ("kept", "drc_failure",
                                                            "not_connected")]
     assert processed and all(b["board_identical"] is True for b in processed)
+
+
+def test_shipped_reference_is_the_board_file_the_compat_pass_left(fixture_build):
+    """SPEC 3 step 2: the upgraded board file hashed as KiCad saved it, before the project
+    pass, equals the file on disk after the pass, and the shipped reference is that file."""
+    out = fixture_build["out"]
+    states = [json.loads(p.read_text()) for p in (out / D3_STATE_DIR).glob("*.json")]
+    compat = {s["name"]: s["compat"] for s in states if s["fate"] == "kept"}
+    manifest = json.loads((out / "manifest.json").read_text())
+    shipped = {board["name"]: sha256_file(out / config / split / board_id / REFERENCE_FILE)
+               for config, entry in manifest["configs"].items()
+               for split, data in entry["splits"].items()
+               for board_id, board in data["boards"].items()}
+    assert compat and set(shipped) == set(compat)
+    for name, sha in shipped.items():
+        assert compat[name]["board_sha256_before"] == compat[name]["board_sha256_after"] == sha
 
 
 def test_characteristics_table_tiers_and_picks(fixture_build):
