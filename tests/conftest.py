@@ -36,7 +36,13 @@ os.environ["HF_DATASETS_OFFLINE"] = "1"
 REPO_ROOT = Path(__file__).resolve().parent.parent
 SHARED_PCBENCH = REPO_ROOT.parent / "shared" / "pcbench" / "pcbench.tar.xz"
 SMALLEST = 150   # the real subset: the boards with the fewest terminal pads ...
-SPREAD_EVERY = 25  # ... plus every 25th of the others by pads
+SPREAD_EVERY = 25  # ... plus every 25th of the others by pads ...
+#: ... plus the boards SPEC section 3 names: published boards whose own routing is incomplete
+#: (kept: unconnected items are no reason to drop a board), the board excluded after the
+#: picks, and the published test picks of D3-B and D3-C (from the recipe's [published] lists).
+NAMED = ("LiPoSensor_lipo_sensor", "Kefersender_UKW TX", "MicroMaple_MicroMaple",
+         "RGBMatrixPanelCPLD-PhotonBackpack_RGBMatrixPanel_CPLD",
+         "hackaday_esp-14_power_meter__autosave-esp-14")
 
 
 def pytest_sessionfinish(session, exitstatus):
@@ -59,6 +65,7 @@ def kicad_pool():
 
 def _subset(checkout: Path) -> list[str]:
     from pcbdata.curation.corpus import read_routing
+    from pcbdata.spec.recipe import load_recipe
 
     sizes = []
     for folder in sorted((checkout / "PCBs").iterdir()):
@@ -73,6 +80,7 @@ def _subset(checkout: Path) -> list[str]:
     chosen = [name for _, name, _ in sizes[:SMALLEST]]
     chosen += [name for _, name, _ in sizes[SMALLEST::SPREAD_EVERY]]
     chosen += [name for _, name, present in sizes if not present]  # the 7 missing boards
+    chosen += [*NAMED, *(n for names in load_recipe().published.values() for n in names)]
     return sorted(set(chosen))
 
 

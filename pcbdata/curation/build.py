@@ -45,7 +45,14 @@ from pcbdata.core.tree import (
 )
 from pcbdata.curation import attribution as attr
 from pcbdata.curation import corpus
-from pcbdata.curation.picks import COLUMNS, Row, assign_tiers, evaluation_subsets, number_rows
+from pcbdata.curation.picks import (
+    COLUMNS,
+    Row,
+    assign_tiers,
+    evaluation_subsets,
+    exclude_after_picks,
+    number_rows,
+)
 from pcbdata.executors import Executor, TaskPool, resolve
 from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.kicad.pool import KicadError, Outcome, is_limit_error
@@ -101,7 +108,7 @@ def judge(result: dict, keep: KeepCriteria) -> dict:
     elif out["errors"] > keep.max_errors:
         out["fate"] = corpus.DRC_FAILURE
         out["reason"] = ", ".join(f"{k}={n}" for k, n in out["error_types"].items())
-    elif unconnected > keep.max_unconnected:
+    elif keep.max_unconnected is not None and unconnected > keep.max_unconnected:
         out["fate"] = corpus.NOT_CONNECTED
         out["reason"] = f"{unconnected} unconnected items"
     else:
@@ -310,7 +317,7 @@ class _Curated:
     notes: list[dict]
     attributions: dict[str, dict]
     snapshot: str
-    warnings: list[str]  # corpus files skipped (unreadable GitHub metadata, ...)
+    warnings: list[str]  # test splits not the published ones; corpus files skipped (...)
 
 
 def _curate(source: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
@@ -323,7 +330,14 @@ def _curate(source: Path, recipe: Recipe, boards: list[corpus.SourceBoard],
                         for b in kept])
     tiers = assign_tiers(rows, recipe.tiers.a_size, recipe.tiers.b_max_pads)
     subsets, notes = evaluation_subsets(tiers, recipe)
-    warnings: list[str] = []
+    rows, after = exclude_after_picks(rows, tiers, subsets, recipe.overrides("exclude_after_picks"))
+    notes += after
+    for note in after:
+        if note["applied"]:
+            states[note["board"]] = {**states[note["board"]], "fate": corpus.EXCLUDED,
+                                     "reason": note["reason"]}
+    warnings = [f"{n['config']}: {n['why']}" for n in notes
+                if n["kind"] == "published_test" and not n["applied"]]
     github = attr.load_github_licences(source, recipe, warnings)
     attributions = {r.name: attr.attribute(r.name, by_name[r.name].metadata, github, recipe)
                     for r in rows}
@@ -348,6 +362,10 @@ def _finish(source: Path, out: Path, recipe: Recipe, boards: list[corpus.SourceB
                              "boards": entries}
         configs[config] = _config_entry(recipe, tier, len(boards), cur.snapshot, kicad_version,
                                         splits)
+        published = [n["applied"] for n in cur.notes
+                     if n["kind"] == "published_test" and n["config"] == config]
+        if published:  # whether the test split is the published one (SPEC 3, step 9)
+            configs[config]["published_test"] = published[0]
     _remove_stale_boards(out, expected)
     summary = _write_tables(source, out, recipe, cur, kicad_version)
     base = {"format": FORMAT, "package_version": __version__, "kicad_version": kicad_version}

@@ -98,10 +98,25 @@ def apply_replacements(chosen: list[Row], tier_rows: list[Row], config: str,
     return out, notes
 
 
+def published_subset(tier_rows: list[Row], config: str,
+                     pinned: tuple[str, ...]) -> tuple[list[Row] | None, dict]:
+    """The published test split of `config` (SPEC section 3, step 9) if every pinned board is
+    in the tier, else None; and the note saying which (naming the boards missing)."""
+    by_name = {r.name: r for r in tier_rows}
+    missing = [name for name in pinned if name not in by_name]
+    note = {"kind": "published_test", "config": config, "boards": list(pinned),
+            "applied": not missing, "missing": missing,
+            "why": "" if not missing else
+            f"{', '.join(missing)} not kept in the tier: the {config} test split is cut by the "
+            f"rule and differs from the published one"}
+    return (None if missing else [by_name[name] for name in pinned]), note
+
+
 def evaluation_subsets(tiers: dict[str, list[Row]], recipe: Recipe,
                        unloadable: frozenset[str] = frozenset(),
                        ) -> tuple[dict[str, list[Row]], list]:
-    """Test subsets per tier, in table order, with the recipe's overrides applied."""
+    """Test subsets per tier, in table order: the recipe's published lists where every board of
+    one is in its tier, else the rule with the recipe's overrides applied."""
     rule = recipe.picks
     notes: list[dict] = []
     leave_out = {o.board: o for o in recipe.overrides("exclude_from_test")
@@ -113,10 +128,15 @@ def evaluation_subsets(tiers: dict[str, list[Row]], recipe: Recipe,
                       "why": "" if present else "board is not in the tier"})
     for tier, trim in (("B", 0.0), ("C", rule.c_trim_fraction)):
         config = D3_TIERS[tier]
-        chosen = picks(tiers[tier], rule.bins, rule.layers, trim)
-        chosen, more = apply_replacements(chosen, tiers[tier], config,
-                                          recipe.overrides("replace_pick"))
-        notes.extend(more)
+        chosen = None
+        if config in recipe.published:
+            chosen, note = published_subset(tiers[tier], config, recipe.published[config])
+            notes.append(note)
+        if chosen is None:
+            chosen = picks(tiers[tier], rule.bins, rule.layers, trim)
+            chosen, more = apply_replacements(chosen, tiers[tier], config,
+                                              recipe.overrides("replace_pick"))
+            notes.extend(more)
         # exclude_from_test overrides for B/C configs drop picks too
         drop = {o.board for o in recipe.overrides("exclude_from_test") if o.config == config}
         subsets[tier] = sorted((r for r in chosen if r.name not in drop), key=lambda r: r.row)
@@ -124,3 +144,28 @@ def evaluation_subsets(tiers: dict[str, list[Row]], recipe: Recipe,
         for r in rows:
             r.in_test = True
     return subsets, notes
+
+
+def exclude_after_picks(rows: list[Row], tiers: dict[str, list[Row]],
+                        subsets: dict[str, list[Row]], overrides: list[Override],
+                        ) -> tuple[list[Row], list[dict]]:
+    """Drops the boards of `exclude_after_picks` overrides from the table, their tier and its
+    test subset, after the tiers and picks were cut with them in the pool (SPEC section 3,
+    step 8), and numbers the remaining rows again in the same order. Returns (the table, the
+    notes)."""
+    notes, gone = [], set()
+    for o in overrides:
+        tier = next((r.tier for r in rows if r.name == o.board), "")
+        why = ("board is not kept" if not tier else
+               f"board is in {D3_TIERS[tier]}, not {o.config}" if o.config
+               and D3_TIERS[tier] != o.config else
+               "board is a test pick" if any(r.name == o.board for r in subsets[tier]) else "")
+        if not why:
+            gone.add(o.board)
+        notes.append({**o.as_dict(), "applied": not why, "why": why})
+    for key in tiers:
+        tiers[key] = [r for r in tiers[key] if r.name not in gone]
+    table = [r for r in rows if r.name not in gone]
+    for index, row in enumerate(table, start=1):
+        row.row = index
+    return table, notes

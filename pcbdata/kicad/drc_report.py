@@ -77,11 +77,12 @@ class DrcReport:
                 types[v.type] = types.get(v.type, 0) + 1
         return types, unconnected
 
-    def within(self, max_errors: int, max_unconnected: int) -> bool:
-        """At most `max_errors` error-severity violations and `max_unconnected` unconnected
-        items (the D3 revalidation rule; the numbers come from the recipe)."""
+    def within(self, max_errors: int, max_unconnected: int | None) -> bool:
+        """At most `max_errors` error-severity violations and (unless None) `max_unconnected`
+        unconnected items (the D3 revalidation rule; the numbers come from the recipe)."""
         types, unconnected = self.error_counts()
-        return sum(types.values()) <= max_errors and unconnected <= max_unconnected
+        return sum(types.values()) <= max_errors and (max_unconnected is None
+                                                      or unconnected <= max_unconnected)
 
     def to_dict(self) -> dict:
         return {"violations": [asdict(v) for v in self.violations],

@@ -337,7 +337,8 @@ class _BoardJob:
         self.result["drc"] = report.to_dict()
         if self.keep is None:
             return True
-        return report.within(int(self.keep["max_errors"]), int(self.keep["max_unconnected"]))
+        limit = self.keep.get("max_unconnected")
+        return report.within(int(self.keep["max_errors"]), None if limit is None else int(limit))
 
     def _bare(self) -> None:
         for item in list(self.bare.GetTracks()):

@@ -2,7 +2,8 @@
 
 One file per config, `pcbdata/resources/releases/<config>.json.gz` (gzip without timestamp, so
 the bytes depend only on the content): the manifest of the released build restricted to that
-config, with every board's sha256. A test rebuilds the small splits (validation, test) and
+config, with every board's sha256; an earlier set version stays as
+`<config>@<version>.json.gz`. A test rebuilds the small splits (validation, test) and
 compares them with these files, so a change that alters boards cannot land unnoticed.
 
 `check_release(manifest)` compares a set's own manifest with these pinned releases
@@ -27,6 +28,9 @@ from pcbdata.model.manifest import read_manifest
 from pcbdata.resources import resource_path
 
 SUFFIX = ".json.gz"
+#: An earlier release of a config stays pinned as `<config>@<set version>.json.gz`, so a set
+#: rebuilt with an older recipe (`pcbdata build d3 --recipe d3-1.0.0`) still verifies.
+VERSION_MARK = "@"
 # Config fields that may differ between a release and a partial rebuild of it.
 _VOLATILE = {"splits"}
 _SPLIT_VOLATILE = {"kicad_checked"}
@@ -58,12 +62,12 @@ def read_release(path: str | Path) -> dict:
 
 
 def released_configs() -> list[str]:
-    """Configs with a pinned release in this package."""
+    """Configs with a pinned release in this package (their current versions)."""
     from pcbdata.publish.layout import config_key
 
     folder = resource_path("releases")
-    return sorted((p.name[: -len(SUFFIX)] for p in folder.iterdir() if p.name.endswith(SUFFIX)),
-                  key=config_key)
+    return sorted((p.name[: -len(SUFFIX)] for p in folder.iterdir()
+                   if p.name.endswith(SUFFIX) and VERSION_MARK not in p.name), key=config_key)
 
 
 @dataclass
@@ -84,8 +88,12 @@ class PinnedRelease:
         return f"release {self.config} {self.version} ({self.source})"
 
 
-def pinned_release(config: str) -> PinnedRelease | None:
-    path = resource_path("releases", f"{config}{SUFFIX}")
+def pinned_release(config: str, version: str | None = None) -> PinnedRelease | None:
+    """The pinned release of `config`: of its set `version` where an earlier release of that
+    version is pinned, else the current one (None if the config has none)."""
+    path = resource_path("releases", f"{config}{VERSION_MARK}{version}{SUFFIX}")
+    if version is None or not path.is_file():
+        path = resource_path("releases", f"{config}{SUFFIX}")
     if not path.is_file():
         return None
     # read through the resource API: the package may live in a zip, not as plain files
@@ -134,7 +142,7 @@ def check_release(manifest: dict, configs: list[str] | None = None,
         entry = manifest.get("configs", {}).get(config)
         if entry is None:
             raise UserError(f"no config {config!r} in the set's manifest")
-        release = pinned_release(config)
+        release = pinned_release(config, str(entry.get("set_version")))
         check = ReleaseCheck(config, release)
         if release is None:
             check.problems.append(

@@ -1,10 +1,11 @@
 """The versioned D3 recipe (`pcbdata/resources/recipes/d3.toml`) as a typed, checked object.
 
 `Recipe` holds one typed table per TOML table (`source`, `engine`, `compat`, `keep`, `tiers`,
-`picks`, `licences`, `overrides`), checked when the file is read: a missing key or a value of
-the wrong type is a `UserError` naming the table and key. `data` keeps the parsed TOML as is:
-the manifest records it (`parameters`), so its bytes do not depend on this module. The KiCad
-workers get the `compat` and `keep` tables as plain dicts (`as_table()`): policy as data.
+`picks`, `published`, `licences`, `overrides`), checked when the file is read: a missing key
+or a value of the wrong type is a `UserError` naming the table and key. `data` keeps the
+parsed TOML as is: the manifest records it (`parameters`), so its bytes do not depend on this
+module. The KiCad workers get the `compat` and `keep` tables as plain dicts (`as_table()`):
+policy as data.
 """
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ from pcbdata.core.hashing import sha256_bytes
 from pcbdata.resources import resource_path
 
 DEFAULT_RECIPE = "d3.toml"
-OVERRIDE_KINDS = {"exclude", "exclude_from_test", "replace_pick"}
+OVERRIDE_KINDS = {"exclude", "exclude_from_test", "replace_pick", "exclude_after_picks"}
 
 
 def _check(value: Any, kind: type | tuple[type, ...], where: str) -> Any:
@@ -117,10 +118,11 @@ class CompatSettings:
 @dataclass(frozen=True)
 class KeepCriteria:
     """`[keep]`: the revalidation rule (SPEC section 3, step 3) and the warning-level checks
-    the revalidation DRC may skip."""
+    the revalidation DRC may skip. `max_unconnected` None (not set): unconnected items are no
+    reason to drop a board."""
 
     max_errors: int
-    max_unconnected: int
+    max_unconnected: int | None = None
     skip_warning_checks: tuple[str, ...] = ()
 
     def as_table(self) -> dict:
@@ -187,6 +189,8 @@ class Recipe:
     picks: PickRule
     licences: LicencePolicy
     all_overrides: tuple[Override, ...] = ()
+    #: `[published]`: the published test split of a config, pinned by board name (step 9)
+    published: dict[str, tuple[str, ...]] = field(default_factory=dict)
 
     def overrides(self, kind: str) -> list[Override]:
         return [o for o in self.all_overrides if o.kind == kind]
@@ -209,6 +213,21 @@ def _overrides(data: dict, origin: str) -> tuple[Override, ...]:
     return tuple(out)
 
 
+def _published(data: dict, origin: str) -> dict[str, tuple[str, ...]]:
+    """`[published]`: config name -> the board names of its published test split."""
+    raw = data.get("published", {})
+    if not isinstance(raw, dict):
+        raise UserError(f"{origin}: [published] must be a table of config = [board names]")
+    out = {}
+    for config, names in sorted(raw.items()):
+        where = f"{origin}: [published] {config}"
+        names = tuple(_check(n, str, where) for n in _check(names, list, where))
+        if len(set(names)) != len(names):
+            raise UserError(f"{where} names a board twice")
+        out[str(config)] = names
+    return out
+
+
 def parse_recipe(raw: bytes, origin: str) -> Recipe:
     try:
         data = tomllib.loads(raw.decode("utf-8"))
@@ -229,17 +248,30 @@ def parse_recipe(raw: bytes, origin: str) -> Recipe:
                   tiers=_table(TierRule, data, "tiers", origin),
                   picks=_table(PickRule, data, "picks", origin),
                   licences=_table(LicencePolicy, data, "licences", origin),
-                  all_overrides=_overrides(data, origin))
+                  all_overrides=_overrides(data, origin),
+                  published=_published(data, origin))
+
+
+def packaged_recipes() -> list[str]:
+    """Names of the recipes shipped in the package: `d3` (the current one) and `d3-<version>`
+    for each earlier version, so an older set stays rebuildable."""
+    return sorted(p.name[:-5] for p in resource_path("recipes").iterdir()
+                  if p.name.endswith(".toml"))
 
 
 def load_recipe(path: str | Path | None = None) -> Recipe:
-    """The recipe at `path`, or the packaged default recipe."""
+    """The recipe at `path`, a packaged recipe by name (`d3`, `d3-1.0.0`; see
+    `packaged_recipes`), or the packaged default recipe."""
     if path is None:
         raw = resource_path("recipes", DEFAULT_RECIPE).read_bytes()
         return parse_recipe(raw, DEFAULT_RECIPE)
+    packaged = resource_path("recipes", f"{path}.toml")
+    if str(path) in packaged_recipes() and not Path(path).exists():
+        return parse_recipe(packaged.read_bytes(), f"{path}.toml")
     path = Path(path)
     if not path.is_file():
-        raise UserError(f"{path}: no such recipe file")
+        raise UserError(f"{path}: no such recipe file (packaged recipes: "
+                        f"{', '.join(packaged_recipes())})")
     return parse_recipe(path.read_bytes(), str(path))
 
 

@@ -12,6 +12,7 @@ from pcbdata.curation.picks import (
     array_split,
     assign_tiers,
     evaluation_subsets,
+    exclude_after_picks,
     number_rows,
     picks,
 )
@@ -107,7 +108,7 @@ def test_replacement_override_applies_only_to_a_computed_pick_in_the_tier():
 
 
 def test_evaluation_subsets_with_the_published_overrides():
-    recipe = load_recipe()
+    recipe = replace(load_recipe(), published={})  # the rule of step 6, with its overrides
     a = [("karabas-nano_wifi_revA", 1, 1, 1, 2)] + [(f"a{i}", 1 + i, 1, 1, 2) for i in range(3)]
     b = [("badge2016_Badge_init", 93, 20, 650, 2), ("cat-trainer_teensy_base_pcb", 93, 26, 28, 2)]
     table = number_rows(rows(a + b))
@@ -121,7 +122,7 @@ def test_evaluation_subsets_with_the_published_overrides():
 
 
 def test_published_replacement_in_its_bin():
-    recipe = load_recipe()
+    recipe = replace(load_recipe(), published={})  # the rule of step 6, with its overrides
     # 20 boards in B, 10 bins of 2, lower median = first of each bin; badge is the first of
     # bin 0 and cat-trainer the second (same pads, more nets) -> cat-trainer replaces it
     spec = [("badge2016_Badge_init", 93, 20, 650, 2),
@@ -141,3 +142,95 @@ def test_recipe_rejects_overrides_without_reason():
     from pcbdata.core.errors import UserError
     with pytest.raises(UserError, match="reason"):
         parse_recipe(raw, "bad.toml")
+
+
+PUBLISHED_B = ["maytal_Maytal", "ottawa-badges-2016_ottawa-badge-tagger-2016", "sensorboard_DiffIR",
+               "MOD-MPU9150_mod-mpu9150", "ATtiny461Breakout_ATTiny461DevBoard",
+               "NiMH-Charger_NiMH Charger", "raspberrypi-3-usb-hub_usb_hub",
+               "kicad-workshop_fancyboard", "mavbridge_mavbridge", "cat-trainer_teensy_base_pcb"]
+PUBLISHED_C = ["laptimer58_Chickadee", "induction-hob_temperature-sender", "uedaino_uedaino",
+               "data-manager_data-manager", "kitspace_f-91w",
+               "RGBMatrixPanelCPLD-PhotonBackpack_RGBMatrixPanel_CPLD_negative",
+               "ozinverter_ozinverterkicad", "Brushless_ESC_Brushless_ESC",
+               "RGBMatrixPanelCPLD-PhotonBackpack_RGBMatrixPanel_CPLD",
+               "TOBS_HybridChargeController"]
+
+
+def test_recipe_pins_the_published_test_lists():
+    """SPEC section 3, step 9: the published D3-B and D3-C test picks, by name."""
+    recipe = load_recipe()
+    assert recipe.version == "2.0.0"
+    assert sorted(recipe.published) == ["d3-b", "d3-c"]
+    assert list(recipe.published["d3-b"]) == PUBLISHED_B
+    assert list(recipe.published["d3-c"]) == PUBLISHED_C
+    assert recipe.keep.max_unconnected is None  # step 3: open connections drop no board
+
+
+def _tier(names, first_pads):
+    return [(n, first_pads + i, 10, 10, 2) for i, n in enumerate(names)]
+
+
+def test_published_lists_are_used_when_every_board_is_in_its_tier():
+    recipe = load_recipe()
+    others = [(f"z{i:02d}", 40 + i, 5, 5, 2) for i in range(30)]  # would be the rule's picks
+    table = number_rows(rows(_tier(PUBLISHED_B, 10) + others))
+    c_table = number_rows(rows(_tier(PUBLISHED_C, 200)))
+    subsets, notes = evaluation_subsets({"A": [], "B": table, "C": c_table}, recipe)
+    assert [r.name for r in subsets["B"]] == sorted(PUBLISHED_B, key=PUBLISHED_B.index)
+    assert {r.name for r in subsets["C"]} == set(PUBLISHED_C)
+    published = {n["config"]: n for n in notes if n["kind"] == "published_test"}
+    assert published["d3-b"]["applied"] and published["d3-c"]["applied"]
+    assert not any(n["kind"] == "replace_pick" for n in notes)  # the rule did not run
+
+
+def test_a_missing_published_board_falls_back_to_the_rule_and_names_it():
+    recipe = load_recipe()
+    names = PUBLISHED_C[1:]  # laptimer58_Chickadee not kept
+    table = number_rows(rows(_tier(names, 200) + _tier([f"y{i}" for i in range(20)], 300)))
+    subsets, notes = evaluation_subsets({"A": [], "B": [], "C": table}, recipe)
+    note = next(n for n in notes if n["kind"] == "published_test" and n["config"] == "d3-c")
+    assert note["applied"] is False and note["missing"] == ["laptimer58_Chickadee"]
+    assert "differs from the published one" in note["why"]
+    assert [r.name for r in subsets["C"]] == [r.name for r in sorted(
+        picks(table, 10, 2, 0.1), key=lambda r: r.row)]
+
+
+def test_exclusion_after_the_picks_keeps_the_board_in_the_pool():
+    """The zero-clearance board of D3-B is cut into the bins, then leaves its tier and the
+    table, and the rows after it are numbered again (SPEC section 3, step 8)."""
+    recipe = load_recipe()
+    gone = "hackaday_esp-14_power_meter__autosave-esp-14"
+    spec = [(f"b{i:02d}", 50 + i, 5, 5, 2) for i in range(20)]
+    spec.insert(2, (gone, 51, 5, 4, 2))  # row 3 of 21: in bin 0 (3 boards), not its median
+    table = number_rows(rows(spec))
+    tiers = assign_tiers(table, 0, 100)
+    with_it = [r.name for r in picks(table, 10, 2)]
+    recipe = replace(recipe, published={})
+    subsets, _ = evaluation_subsets(tiers, recipe)
+    assert [r.name for r in subsets["B"]] == with_it and gone not in with_it
+    kept, notes = exclude_after_picks(table, tiers, subsets,
+                                      recipe.overrides("exclude_after_picks"))
+    assert notes == [{**recipe.overrides("exclude_after_picks")[0].as_dict(), "applied": True,
+                      "why": ""}]
+    assert gone not in [r.name for r in kept] and gone not in [r.name for r in tiers["B"]]
+    assert [r.row for r in kept] == list(range(1, 21))
+    # without it in the pool, the bins (and so the picks) would be others
+    assert with_it != [r.name for r in picks(kept, 10, 2)]
+
+
+def test_exclusion_after_the_picks_refuses_a_test_pick():
+    recipe = load_recipe()
+    gone = "hackaday_esp-14_power_meter__autosave-esp-14"
+    table = number_rows(rows([(gone, 54, 5, 4, 2)]))
+    tiers = assign_tiers(table, 0, 100)
+    subsets = {"A": [], "B": list(table), "C": []}
+    kept, notes = exclude_after_picks(table, tiers, subsets,
+                                      recipe.overrides("exclude_after_picks"))
+    assert notes[0]["applied"] is False and notes[0]["why"] == "board is a test pick"
+    assert [r.name for r in kept] == [gone]
+
+
+def test_the_previous_recipe_stays_loadable_by_name():
+    old = load_recipe("d3-1.0.0")
+    assert (old.version, old.keep.max_unconnected, old.published) == ("1.0.0", 0, {})
+    assert old.sha256 == "b70fe78c312589d075acbdac59245f99185dcb71051df2ca0c5c883b5f7253ae"

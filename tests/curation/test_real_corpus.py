@@ -92,3 +92,56 @@ def test_real_subset_boards_match_the_released_d3_manifests(real_subset):
             assert board["files"] == released[board["name"]], f"{board['name']}: files differ"
             compared += 1
     assert compared >= 100
+
+
+RESTORED = ("LiPoSensor_lipo_sensor", "Kefersender_UKW TX", "MicroMaple_MicroMaple",
+            "RGBMatrixPanelCPLD-PhotonBackpack_RGBMatrixPanel_CPLD")
+ZERO_CLEARANCE = "hackaday_esp-14_power_meter__autosave-esp-14"
+
+
+@pytest.mark.slow
+def test_published_boards_with_open_connections_are_kept(real_subset):
+    """SPEC section 3, step 3: unconnected items are no reason to drop a board."""
+    with open(real_subset["out"] / "curation_report.csv", newline="", encoding="utf-8") as h:
+        report = {r["name"]: r for r in csv.DictReader(h)}
+    for name in RESTORED:
+        assert report[name]["fate"] == "kept", name
+    assert int(report["RGBMatrixPanelCPLD-PhotonBackpack_RGBMatrixPanel_CPLD"]["unconnected"]) \
+        == 88
+    assert not any(r["fate"] == "not_connected" for r in report.values())
+
+
+@pytest.mark.slow
+def test_zero_clearance_board_is_excluded_after_the_picks(real_subset):
+    """SPEC section 3, step 8: only the curation report names it, as excluded."""
+    out = real_subset["out"]
+    with open(out / "curation_report.csv", newline="", encoding="utf-8") as h:
+        report = {r["name"]: r for r in csv.DictReader(h)}
+    assert report[ZERO_CLEARANCE]["fate"] == "excluded_by_override"
+    assert report[ZERO_CLEARANCE]["board_id"] == ""
+    for table in ("characteristics.csv", "attribution.csv"):
+        assert ZERO_CLEARANCE not in (out / table).read_text(encoding="utf-8")
+    manifest = json.loads((out / "manifest.json").read_text(encoding="utf-8"))
+    names = {b["name"] for c in manifest["configs"].values()
+             for s in c["splits"].values() for b in s["boards"].values()}
+    assert ZERO_CLEARANCE not in names
+    notes = json.loads((out / "curation_report.json").read_text())["overrides"]
+    assert {"kind": "exclude_after_picks", "board": ZERO_CLEARANCE,
+            "applied": True}.items() <= next(n for n in notes
+                                             if n["kind"] == "exclude_after_picks").items()
+
+
+@pytest.mark.slow
+def test_test_splits_are_the_published_picks(real_subset):
+    """SPEC section 3, step 9: with every pinned board kept, D3-B and D3-C test are the
+    published lists, and the manifest says so."""
+    from pcbdata.spec.recipe import load_recipe
+
+    published = load_recipe().published
+    manifest = json.loads((real_subset["out"] / "manifest.json").read_text(encoding="utf-8"))
+    for config in ("d3-b", "d3-c"):
+        entry = manifest["configs"][config]
+        test = sorted(b["name"] for b in entry["splits"]["test"]["boards"].values())
+        assert test == sorted(published[config]), config
+        assert entry["published_test"] is True
+    assert real_subset["summary"]["warnings"] == []
