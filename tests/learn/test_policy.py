@@ -47,16 +47,23 @@ def test_sampled_actions_are_never_masked(n_nets, n_cands, k):
     assert seen == {IDLE, NET_SELECT, MAKE_LINE, MAKE_VIA, FINISH}
 
 
-def test_evaluate_matches_act_and_masked_actions_are_impossible():
+@pytest.mark.parametrize("temperature", [1.0, 2.0, 3.0])
+def test_evaluate_matches_act_and_masked_actions_are_impossible(temperature):
+    """At every sampling temperature: `act` reports the untempered policy's log-probabilities
+    (those `evaluate` gives), and a masked action stays impossible, untempered and tempered."""
     rng = np.random.default_rng(1)
     policy = SetPolicy(dim=16)
     batch = to_tensors(batching.collate([_item(rng, 32, 64, 10, 64)]), torch.device("cpu"))
-    actions, logp, _ = policy.act(batch, generator=torch.Generator().manual_seed(3))
+    actions, logp, _ = policy.act(batch, generator=torch.Generator().manual_seed(3),
+                                  temperature=temperature)
     again, entropy, _ = policy.evaluate(batch, actions)
     assert torch.allclose(logp, again) and entropy.item() > 0
     masked = np.flatnonzero(~batch["index_mask"][0, NET_SELECT].numpy())[0]
     bad, _, _ = policy.evaluate(batch, torch.tensor([[NET_SELECT, int(masked), 0]]))
     assert bad.item() < -1e6
+    h, s = policy.encode(batch)
+    logits = policy.index_logits(h, s, torch.tensor([NET_SELECT]), batch)
+    assert torch.log_softmax(logits / temperature, dim=-1)[0, masked].item() < -1e6
 
 
 def test_pointer_reads_net_rows_for_net_select_and_candidate_rows_otherwise():
