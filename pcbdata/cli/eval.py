@@ -5,6 +5,7 @@ import os
 
 from pcbdata.cli import _checks as checks
 from pcbdata.cli import _executor_options
+from pcbdata.evaluator.metrics import CONVENTIONS
 
 VERB = "eval"
 HELP = "score routed boards against a built board set (CP, Pot., Rout., DRV, WL, Via, Time)"
@@ -39,9 +40,17 @@ def register(parser) -> None:
                         help="seconds allowed per board (default: 300)")
     parser.add_argument("--limit", type=checks.positive, metavar="N",
                         help="score only the first N boards of the split (board-id order)")
-    parser.add_argument("--lw", type=checks.weight, default=0.002,
-                        help="potential weight per mm of WL")
-    parser.add_argument("--lv", type=checks.weight, default=0.1, help="potential weight per via")
+    parser.add_argument("--convention", choices=sorted(CONVENTIONS), default="spec",
+                        help="scoring convention: 'spec' (SPEC section 4, the default) or "
+                             "'d1-published' (the paper's D1 Pot. column: no WL or via term, "
+                             "Phi(bare) = -U0; a clean complete D1 route scores 6.946); "
+                             "recorded in the report")
+    parser.add_argument("--lw", type=checks.weight, default=None,
+                        help="potential weight per mm of WL (default 0.002; not with "
+                             "--convention d1-published)")
+    parser.add_argument("--lv", type=checks.weight, default=None,
+                        help="potential weight per via (default 0.1; not with --convention "
+                             "d1-published)")
     parser.add_argument("--no-cache", action="store_true",
                         help="score every rollout again, ignoring REPORT/scores.jsonl (the way to "
                              "trust a REPORT folder you did not write)")
@@ -52,13 +61,26 @@ def register(parser) -> None:
     parser.set_defaults(run=run)
 
 
+def weights_of(args):
+    """The potential's weights: the convention's, with --lw / --lv over the default one."""
+    from dataclasses import replace
+
+    from pcbdata.core.errors import UserError
+
+    base = CONVENTIONS[args.convention]
+    given = {k: v for k, v in (("lw", args.lw), ("lv", args.lv)) if v is not None}
+    if given and args.convention != "spec":
+        raise UserError(f"--convention {args.convention} fixes the weights; drop "
+                        f"{', '.join('--' + k for k in given)}")
+    return replace(base, **given)
+
+
 def run(args) -> int:
-    from pcbdata.evaluator.metrics import Weights
     from pcbdata.evaluator.runs import evaluate_set
 
     result = evaluate_set(args.dir, args.config, args.split, args.out, runs=args.runs,
                           k=args.k, reference=args.reference, workers=args.workers,
-                          weights=Weights(lw=args.lw, lv=args.lv), name=args.name,
+                          weights=weights_of(args), name=args.name,
                           task_timeout=args.timeout, limit=args.limit,
                           executor=_executor_options.executor(args),
                           use_cache=not args.no_cache, allow_unverified=args.allow_unverified)

@@ -36,12 +36,25 @@ class Weights:
     lw: float = 0.002  # per mm of track
     lv: float = 0.1  # per via
     net_weight: float = 3.0  # weight of the "how many nets are hit" term of f
+    #: whether Phi of the bare board counts its DRC term f (SPEC 4: it does; the published D1
+    #: convention takes Phi(bare) = -U0). Only the evaluator's Pot. reads it.
+    bare_drc: bool = True
 
     def as_dict(self) -> dict:
         return asdict(self)
 
 
 DEFAULT_WEIGHTS = Weights()
+#: Named scoring conventions (SPEC 4): "spec", the formula as defined (the default), and
+#: "d1-published", the paper's D1 Pot. column: lw = lv = 0 and Phi(bare) = -U0, so a clean,
+#: complete D1 route scores ln 7 + 5 = 6.946 and an untouched board -5.786.
+CONVENTIONS = {"spec": DEFAULT_WEIGHTS,
+               "d1-published": Weights(lw=0.0, lv=0.0, bare_drc=False)}
+
+
+def convention_of(weights: Weights) -> str:
+    """The name of the convention `weights` are, or "custom"."""
+    return next((name for name, w in CONVENTIONS.items() if w == weights), "custom")
 
 
 def _check_counting(counting: str) -> None:
@@ -211,7 +224,7 @@ def rollout_metrics(raw: dict, weights: Weights = DEFAULT_WEIGHTS) -> dict:
                        f"drv{suffix}_by_type": dict(by_type)})
     for counting, suffix in POT_SUFFIX.items():
         penalty, phi = _phi(routed, counting, weights)
-        phi_bare = _phi(bare, counting, weights)[1]
+        phi_bare = _phi(bare, counting, weights)[1] if weights.bare_drc else -bare["unconnected"]
         record.update({f"pot{suffix}": phi - phi_bare, f"penalty{suffix}": penalty,
                        f"phi{suffix}": phi, f"phi_bare{suffix}": phi_bare})
     return dict(sorted(record.items()))

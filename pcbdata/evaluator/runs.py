@@ -23,7 +23,7 @@ from pcbdata.core.hashing import sha256_file
 from pcbdata.core.tree import REFERENCE_FILE, list_instances
 from pcbdata.evaluator.accounting import llm_totals
 from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, complete, instance_hash
-from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, pick_best
+from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, convention_of, pick_best
 from pcbdata.evaluator.setcheck import mark, refuse_unverified, set_identity
 from pcbdata.executors import Executor
 from pcbdata.kicad.pool import is_limit_error, memory_limit_from_env
@@ -283,7 +283,10 @@ def _check_arguments(k, workers, weights: Weights, task_timeout, limit, name) ->
             or not math.isfinite(task_timeout) or task_timeout <= 0:
         raise UserError(f"--timeout must be a finite number of seconds > 0, got {task_timeout!r}")
     for key, value in weights.as_dict().items():
-        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+        if key == "bare_drc":
+            if not isinstance(value, bool):
+                raise UserError(f"weight bare_drc must be true or false, got {value!r}")
+        elif isinstance(value, bool) or not isinstance(value, (int, float)) \
                 or not math.isfinite(value) or value < 0:
             raise UserError(f"weight {key} must be a finite number >= 0, got {value!r}")
     if name is not None and (not name.strip() or any(c in name for c in "|\r\n")):
@@ -376,7 +379,8 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
         board_rows = [board_row(board_id, by_board[board_id]) for board_id, _ in instances]
         summary = summarize(board_rows, rollout_rows, 1 if reference else k)
         summary.update(config=config, split=split, evaluator_version=EVALUATOR_VERSION,
-                       weights=weights.as_dict(), reference=reference, set=identity,
+                       weights=weights.as_dict(), convention=convention_of(weights),
+                       reference=reference, set=identity,
                        cache=cache_stats)
         if warnings:
             summary["runs_warnings"] = warnings
@@ -532,7 +536,8 @@ def _write_report(out: Path, label: str, summary: dict, table: str, rollout_rows
     header = (f"# {label} on {summary['config']} / {summary['split']}\n\n@k = {summary['k']}, "
               f"{summary['n_boards']} boards ({summary['n_boards_scored']} with a scored "
               f"rollout), {summary['n_rollouts']} rollouts ({summary['n_timed']} with a time), "
-              f"evaluator {EVALUATOR_VERSION}\n\n{set_line(summary['set'])}\n\n")
+              f"evaluator {EVALUATOR_VERSION}, scoring convention {summary['convention']}"
+              f"\n\n{set_line(summary['set'])}\n\n")
     if summary.get("n_boards_without_reference"):
         header += (_without_line(summary["n_boards"], summary["boards_without_reference"])
                    + ".\n\n")
