@@ -19,6 +19,7 @@ A leaf module (stdlib only): every layer, the KiCad layer included, may import i
 """
 from __future__ import annotations
 
+import json
 import os
 from collections.abc import Mapping
 from pathlib import Path
@@ -81,13 +82,28 @@ def list_instances(root: str | os.PathLike, config: str, split: str) -> list[tup
     root = Path(root)
     base = split_dir(root, config, split)
     if not base.is_dir():
-        configs = sorted(p.name for p in root.iterdir() if p.is_dir()) if root.is_dir() else []
-        raise UserError(f"{base}: no such config/split in {root} "
-                        f"(configs: {', '.join(configs) or 'none'})")
+        held = held_splits(root)
+        known = (f"{config} has splits: {', '.join(held[config]) or 'none'}" if config in held
+                 else f"configs: {', '.join(sorted(held)) or 'none'}")
+        raise UserError(f"{base}: no such config/split in {root} ({known})")
     boards = sorted((p.name, p) for p in base.iterdir() if (p / BOARD_FILE).is_file())
     if not boards:
         raise UserError(f"{base}: holds no boards")
     return boards
+
+
+def held_splits(root: str | os.PathLike) -> dict[str, list[str]]:
+    """{config: its splits} of a built set, as its manifest records them; a set without a
+    readable manifest (boards written by hand): the folders that hold boards."""
+    root = Path(root)
+    try:
+        configs = json.loads(manifest_path(root).read_text(encoding="utf-8"))["configs"]
+        return {name: sorted(entry["splits"]) for name, entry in configs.items()}
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
+        held: dict[str, set[str]] = {}
+        for board in root.glob(f"*/*/*/{BOARD_FILE}"):
+            held.setdefault(board.parts[-4], set()).add(board.parts[-3])
+        return {name: sorted(splits) for name, splits in held.items()}
 
 
 def arrays_name(split: str) -> str:

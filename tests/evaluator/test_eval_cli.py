@@ -134,3 +134,22 @@ def test_eval_user_errors(board_set, runs, tmp_path, capsys):
                  "--out", str(tmp_path / "r")]) == 2
     assert "reference.kicad_pcb" in capsys.readouterr().err
     assert main(["eval", str(board_set), "--config", "d2", "--out", str(tmp_path / "r")]) == 2
+
+
+def test_a_config_the_set_lacks_is_answered_with_the_configs_its_manifest_holds(tmp_path,
+                                                                                 capsys):
+    """A set `pcbdata build d2` wrote also holds .pcbdata/ and pictures/: not configs."""
+    built = tmp_path / "d2"
+    assert main(["build", "d2", "--out", str(built), "--splits", "test", "--count", "2",
+                 "--no-check", "--workers", "1"]) == 0
+    assert (built / ".pcbdata").is_dir() and (built / "pictures").is_dir()
+    capsys.readouterr()
+    runs = tmp_path / "runs"
+    runs.mkdir()
+    assert main(["eval", str(built), "--config", "d3-a", "--runs", str(runs),
+                 "--out", str(tmp_path / "r")]) == 2
+    err = capsys.readouterr().err
+    assert err.strip().endswith(f"no such config/split in {built} (configs: d2)"), err
+    assert main(["eval", str(built), "--config", "d2", "--split", "train", "--runs", str(runs),
+                 "--out", str(tmp_path / "r")]) == 2
+    assert capsys.readouterr().err.strip().endswith("(d2 has splits: test)")
