@@ -3,10 +3,27 @@ preset's or the user's (`--set`) values, and its plain form for the manifest."""
 from __future__ import annotations
 
 from dataclasses import asdict, fields
-from difflib import get_close_matches
+from difflib import SequenceMatcher, get_close_matches
 from typing import Any
 
 from pcbdata.core.errors import UserError
+
+
+def closest_name(key: str, known: list[str]) -> str | None:
+    """The known name closest to `key`: difflib's closest match, else the one sharing the most
+    words with it (`nets_max` -> `net_counts`), ties by similarity; None when nothing is near."""
+    close = get_close_matches(key, known, n=1)
+    if close:
+        return close[0]
+    words = key.lower().split("_")
+
+    def score(name: str) -> tuple[int, float]:
+        parts = name.split("_")
+        shared = sum(1 for w in words if get_close_matches(w, parts, n=1, cutoff=0.75))
+        return shared, SequenceMatcher(None, key, name).ratio()
+
+    best = max(known, key=score, default=None)
+    return best if best is not None and score(best)[0] else None
 
 
 class GeneratorParams:
@@ -30,9 +47,10 @@ class GeneratorParams:
         kwargs = {}
         for key, value in values.items():
             if key not in known:
-                close = get_close_matches(key, known, n=1)
-                hint = f" (did you mean {close[0]!r}?)" if close else ""
-                raise UserError(f"{where}: unknown {cls.LABEL} parameter {key!r}{hint}")
+                close = closest_name(key, list(known))
+                hint = f"; did you mean {close!r}?" if close else ""
+                raise UserError(f"{where}: unknown {cls.LABEL} parameter {key!r}{hint} "
+                                f"(known: {', '.join(sorted(known))})")
             kwargs[key] = cls.coerce(key, value, str(known[key].type), where)
         return cls(**kwargs)
 

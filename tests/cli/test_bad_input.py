@@ -87,6 +87,18 @@ def test_bad_d2_parameters(tmp_path, capsys, sets, message):
     assert not out.exists()
 
 
+def test_an_unknown_parameter_is_answered_with_the_closest_and_the_known_ones(tmp_path,
+                                                                            capsys):
+    out = tmp_path / "set"
+    line = assert_one_line(*run_main(["build", "d2", "--out", out, "--set", "nets_max=-3"],
+                                     capsys), "unknown D2 parameter 'nets_max'")
+    assert "did you mean 'net_counts'?" in line
+    assert line.endswith(f"(known: {', '.join(sorted(D2Params.keys()))})")
+    line = assert_one_line(*run_main(["build", "d2", "--out", out, "--set", "zzz=1"], capsys),
+                           "unknown D2 parameter 'zzz' (known: clearance_mm, drill_mm, ")
+    assert "did you mean" not in line and not out.exists()
+
+
 BUILD_BAD = [
     (["d1", "--grid", "5001"], "at most 5000"),
     (["d1", "--grid", "99999999999999999999"], "at most 5000"),
