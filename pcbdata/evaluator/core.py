@@ -74,6 +74,12 @@ def oversize(path: str | Path, max_bytes: int) -> str | None:
             f"the largest instance board, at least {MIN_SIZE_LIMIT}), not loaded")
 
 
+#: Byte-order marks KiCad's loader refuses (it finds no board format in the file); CR, LF and
+#: CRLF line ends all load.
+_BYTE_ORDER_MARKS = ((b"\xef\xbb\xbf", "UTF-8"), (b"\xff\xfe", "UTF-16"),
+                     (b"\xfe\xff", "UTF-16"))
+
+
 def precheck(path: str | Path) -> str | None:
     """A reason why `path` cannot be a `.kicad_pcb` file, found without KiCad; None if it may be."""
     path = Path(path)
@@ -83,6 +89,10 @@ def precheck(path: str | Path) -> str | None:
         return "empty file"
     with open(path, "rb") as handle:
         head = handle.read(4096)
+    for mark, name in _BYTE_ORDER_MARKS:
+        if head.startswith(mark):
+            return (f"starts with a {name} byte-order mark, which KiCad 9.0.8 does not load "
+                    f"(save it as UTF-8 without one; CRLF line ends are fine)")
     if b"\0" in head:
         return "not a .kicad_pcb file (binary data)"
     if not head.lstrip().startswith(b"(kicad_pcb"):

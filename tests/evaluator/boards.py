@@ -62,3 +62,10 @@ def write_board(board: Board, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(board_text(board), encoding="utf-8")
     return path
+
+
+def kicad_loads(path: str) -> bool:
+    """In a KiCad worker: whether KiCad itself loads the file as a board (`pcbnew.LoadBoard`)."""
+    from pcbdata.kicad.basics import pcbnew_module
+
+    return pcbnew_module().LoadBoard(path) is not None

@@ -153,3 +153,29 @@ def test_a_config_the_set_lacks_is_answered_with_the_configs_its_manifest_holds(
     assert main(["eval", str(built), "--config", "d2", "--split", "train", "--runs", str(runs),
                  "--out", str(tmp_path / "r")]) == 2
     assert capsys.readouterr().err.strip().endswith("(d2 has splits: test)")
+
+
+def test_line_ends_kicad_loads_are_scored_and_a_byte_order_mark_is_refused_with_the_reason(
+        board_set, tmp_path, capsys, kicad_pool):
+    """KiCad 9.0.8 loads a board with CRLF or CR line ends and refuses one that starts with a
+    byte-order mark (checked here in KiCad itself); eval does the same and says why."""
+    lf = write_board(routed(base_board(), [ROUTE_A, ROUTE_B]), tmp_path / "lf.kicad_pcb")
+    text, bom = lf.read_bytes(), b"\xef\xbb\xbf"
+    variants = {"b0": text.replace(b"\n", b"\r\n"), "b1": bom + text.replace(b"\n", b"\r\n"),
+                "b2": bom + text, "b3": text.replace(b"\n", b"\r")}
+    runs = tmp_path / "runs"
+    for board_id, data in variants.items():
+        (runs / board_id).mkdir(parents=True)
+        (runs / board_id / "0.kicad_pcb").write_bytes(data)
+    loads = {b: kicad_pool.call("boards:kicad_loads", str(runs / b / "0.kicad_pcb"))
+             for b in variants}
+    assert loads == {"b0": True, "b1": False, "b2": False, "b3": True}
+    out = tmp_path / "report"
+    assert main(["eval", str(board_set), "--config", "d2", "--runs", str(runs), "--out",
+                 str(out), "--k", "1", "--workers", "2"]) == 0, capsys.readouterr().err
+    by = {r["board_id"]: r for r in read_csv(out / "per_rollout.csv")}
+    assert [(by[b]["status"], by[b]["cp"]) for b in ("b0", "b3")] == [("ok", "1"), ("ok", "1")]
+    for board_id in ("b1", "b2"):
+        assert by[board_id]["status"] == "parse_fail", by[board_id]
+        assert by[board_id]["reason"].startswith("starts with a UTF-8 byte-order mark, which "
+                                                 "KiCad 9.0.8 does not load"), by[board_id]
