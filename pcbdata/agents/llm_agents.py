@@ -70,8 +70,9 @@ class _LLMBase:
         self.end: str | None = None
         self.board_text: str | None = None  # the rollout's board when the agent writes it
 
-    def preflight(self) -> None:
-        self.client.preflight()
+    def preflight(self) -> str | None:
+        """The server's start-up check (`ChatClient.preflight`): a warning, or None."""
+        return self.client.preflight()
 
     def act(self, obs, info):
         raise TypeError(f"{type(self).__name__} runs whole episodes (episode()), not act()")

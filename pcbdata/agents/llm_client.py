@@ -120,19 +120,33 @@ class ChatClient:
             out["max_tokens"] = int(self.options["max_tokens"])
         return out
 
-    def preflight(self) -> None:
-        """`GET <base>/models` (a server without it: one tiny chat request): a server that is
-        down or refuses fails the run at once, with one line."""
+    def preflight(self) -> str | None:
+        """`GET <base>/models`: a server that is down or refuses the key fails the run at once,
+        with one line. A running server that answers that route with another HTTP error (a
+        404 or 501: it has no such route) is asked one tiny chat request instead: when the
+        chat route answers, the run goes on and the returned warning says what failed; when
+        it does not, the line names both failures. None: all is well."""
         status, reason = self._probe("GET", "/models", None)
-        if status in (404, 405):
-            tiny = {"model": self.options["model"], "max_tokens": 1,
-                    "messages": [{"role": "user", "content": "ping"}]}
-            status, reason = self._probe("POST", "/chat/completions", tiny)
         if status == 200:
-            return
-        hint = (f"is {self.options['api_key_env']} the right key?" if status in (401, 403)
-                else "is the server running?")
-        raise UserError(f"--base-url {self.base}: {reason}; {hint}")
+            return None
+        if status == 0 or status in (401, 403):
+            raise UserError(f"--base-url {self.base}: {reason}; {self._hint(status)}")
+        tiny = {"model": self.options["model"], "max_tokens": 1,
+                "messages": [{"role": "user", "content": "ping"}]}
+        chat, chat_reason = self._probe("POST", "/chat/completions", tiny)
+        if chat == 200:
+            return (f"--base-url {self.base}: {reason} from a running server; its chat route "
+                    f"answers, so the run goes on")
+        raise UserError(f"--base-url {self.base}: {reason} from a running server, then "
+                        f"{chat_reason}; {self._hint(chat)}")
+
+    def _hint(self, status: int) -> str:
+        """What to check after a failed start-up request (HTTP status; 0: no answer)."""
+        if status in (401, 403):
+            return f"is {self.options['api_key_env']} the right key?"
+        if status == 0:
+            return "is the server running?"
+        return "is --base-url the server's API root (e.g. ending in /v1)?"
 
     def _probe(self, method: str, path: str, body: dict | None) -> tuple[int, str]:
         """(HTTP status, 0 when no answer; the failure's one-line reason)."""

@@ -20,6 +20,7 @@ import importlib
 import inspect
 import json
 import os
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -169,7 +170,7 @@ def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, 
     Progress lines go to `log`. `root` and `out` are made absolute here: on a Ray cluster they
     must be the same path on every node (a shared filesystem). `agent_options` go to the agent
     (`make_agent`); an agent with a `preflight()` (a language model's server) is checked
-    once here, before any work."""
+    once here, before any work (a warning it returns goes to stderr)."""
     from pcbdata.core.tree import list_instances
     from pcbdata.env.generator import resolve_config
     from pcbdata.env.registry import env_id_for
@@ -181,7 +182,9 @@ def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, 
     board_ids = [b for b, _ in list_instances(root, config, split)][:limit]
     todo = pending(board_ids, rollouts, out)
     if todo and hasattr(probe, "preflight"):
-        probe.preflight()
+        warning = probe.preflight()
+        if warning:
+            print(f"pcbdata: warning: {warning}", file=sys.stderr)
     env_kwargs = {"id": env_id_for(config), "config": config, "root": str(root),
                   "split": split, **(env_options or {})}
     began, records, failed = time.perf_counter(), [], 0

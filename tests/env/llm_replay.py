@@ -13,7 +13,9 @@ as characters / 4 (`CHARS_PER_TOKEN`), the assumption docs/env_llm.md states.
 `faults` maps (board_id, seed) to a misbehaviour: `slow` (sleeps past the client's time-out),
 `500`, `garbage` (not JSON), `no_tool` (prose without a call), `context` (HTTP 400 context
 length), `429_once` (a 429 on that rollout's first request, then the replay), `stop_at_3`
-(the text <stop> from step 3).
+(the text <stop> from step 3). `models` is the status of `GET /v1/models`: 200, or 404 / 501
+for a server without that route, which the client's start-up check then pings with a
+one-token chat request (answered without a board, not recorded in `requests`).
 """
 from __future__ import annotations
 
@@ -86,8 +88,9 @@ class ReplayServer:
     """`with ReplayServer(recording, bare_boards) as server:` ... `server.url`."""
 
     def __init__(self, recording: dict, bare: dict[str, str] | None = None,
-                 faults: dict | None = None, max_requests: int = 5000):
+                 faults: dict | None = None, max_requests: int = 5000, models: int = 200):
         self.recording, self.bare, self.faults = recording, bare or {}, faults or {}
+        self.models = models  # the status of GET /v1/models
         self.max_requests = max_requests  # a runaway client gets 503s, never an endless loop
         self.requests: list[dict] = []
         self.lock = threading.Lock()
@@ -110,7 +113,10 @@ class ReplayServer:
         """(HTTP status, JSON answer or raw bytes, seconds to wait first)."""
         messages = body["messages"]
         prompt = "\n".join(str(m.get("content") or "") for m in messages)
-        board = _BOARD.search(prompt).group(1)  # type: ignore[union-attr]
+        found = _BOARD.search(prompt)
+        if found is None:  # the start-up check's ping
+            return 200, self._completion({"role": "assistant", "content": "pong"}, prompt), 0.0
+        board = found.group(1)
         seed = int(body.get("seed", 0))
         with self.lock:
             seen = sum(1 for r in self.requests if (r["board"], r["seed"]) == (board, seed))
@@ -171,7 +177,9 @@ def _handler(server: ReplayServer):
             pass
 
         def do_GET(self):
-            if self.path.rstrip("/") == "/v1/models":
+            if self.path.rstrip("/") == "/v1/models" and server.models != 200:
+                self.send_error(server.models)  # as http.server answers a route it lacks
+            elif self.path.rstrip("/") == "/v1/models":
                 self._send(200, {"object": "list", "data": [{"id": "replay",
                                                              "object": "model"}]})
             else:

@@ -142,7 +142,10 @@ class _Probe:
 
 def test_preflight_falls_back_to_a_tiny_chat_and_names_a_bad_key():
     with _Probe(get=404, post=200) as server:  # no /models: one tiny chat request instead
-        ChatClient({"base_url": server.url, "model": "m"}).preflight()
+        warning = ChatClient({"base_url": server.url, "model": "m"}).preflight()
+    assert warning and "GET /models failed (HTTP 404: " in warning and "goes on" in warning
+    with _Probe(get=200, post=500) as server:
+        assert ChatClient({"base_url": server.url, "model": "m"}).preflight() is None
     with _Probe(get=404, post=500) as server:
         with pytest.raises(UserError, match=r"POST /chat/completions failed \(HTTP 500: "):
             ChatClient({"base_url": server.url, "model": "m"}).preflight()

@@ -156,6 +156,43 @@ def test_a_server_that_is_down_fails_fast(board_set, tmp_path, capsys):
     assert not (tmp_path / "runs").exists()
 
 
+@pytest.mark.parametrize("models", [404, 501])
+def test_a_server_without_get_models_is_used_with_a_warning(board_set, recording, tmp_path,
+                                                            capsys, models):
+    """A running server whose `GET /models` answers 404 or 501 (no such route) while its chat
+    route answers: the run goes on, and a warning says what failed."""
+    runs = tmp_path / "runs"
+    with ReplayServer(recording, models=models) as server:
+        code = main(_rollout(board_set, runs, "llm", "--model", "replay", "--base-url",
+                             server.url, "--limit", "1", *FAST))
+        requested = len(server.requests)  # the ping is not recorded
+    captured = capsys.readouterr()
+    assert code == 0, captured.err
+    warnings = [line for line in captured.err.splitlines() if "warning" in line]
+    assert len(warnings) == 1, captured.err
+    assert warnings[0].startswith(f"pcbdata: warning: --base-url {server.url}: GET /models "
+                                  f"failed (HTTP {models}")
+    assert warnings[0].endswith("from a running server; its chat route answers, so the run "
+                                "goes on")
+    record = json.loads((runs / BOARDS[0] / "0.json").read_text())
+    assert record["terminated"] and requested == record["llm"]["accounting"]["requests"]
+
+
+def test_a_running_server_without_the_chat_route_is_not_called_down(board_set, recording,
+                                                                     tmp_path, capsys):
+    """--base-url without its /v1: both start-up requests get 404 from a running server."""
+    with ReplayServer(recording) as server:
+        base = server.url.removesuffix("/v1")
+        code = main(_rollout(board_set, tmp_path / "runs", "llm", "--model", "replay",
+                             "--base-url", base))
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1, err
+    assert (f"--base-url {base}: GET /models failed (HTTP 404: " in err
+            and "from a running server, then POST /chat/completions failed (HTTP 404: " in err)
+    assert "is the server running?" not in err and "e.g. ending in /v1" in err
+    assert not (tmp_path / "runs").exists()
+
+
 def test_llm_options_are_checked(board_set, tmp_path, capsys):
     base = _rollout(board_set, tmp_path / "runs", "llm")
     assert main(base) == 2
