@@ -91,6 +91,16 @@ class _LLMBase:
             self.end = f"server fault: {fault.reason}"
             return None
 
+    def identity(self) -> dict:
+        """The model, its server and the sampling settings (the seed is the offset each
+        rollout's number is added to), for the rollout's `agent_identity`."""
+        options = self.options
+        return {"model": options["model"], "base_url": options["base_url"],
+                "sampling": {"temperature": options["temperature"],
+                             "seed": int(options["seed"] or 0),
+                             "max_tokens": options["max_tokens"]},
+                "prompt_version": PROMPT_VERSION}
+
     def llm_record(self) -> dict:
         shown = {k: v for k, v in self.options.items() if k != "api_key_env"}
         return {"agent": self.kind, "prompt_version": PROMPT_VERSION,

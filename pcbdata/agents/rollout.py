@@ -123,11 +123,48 @@ def _write_atomic(path: Path, text: str) -> None:
     os.replace(tmp, path)
 
 
+def agent_identity(spec: str, agent) -> dict:
+    """Who made a rollout: `name` (the --agent given; `policy` for any checkpoint), `version`
+    (pcbdata's for its own agents, else the agent class's `version` attribute, else None), and
+    what the agent's `identity()` adds (a policy's checkpoint sha256 and sampling, a language
+    model's model, server and sampling); None where it does not apply."""
+    from pcbdata import __version__
+
+    own = type(agent).__module__.startswith("pcbdata.")
+    identity = {"name": "policy" if spec.startswith("policy:") else spec,
+                "version": __version__ if own else getattr(agent, "version", None),
+                "checkpoint_sha256": None, "model": None, "base_url": None,
+                "prompt_version": None, "sampling": None}
+    extra = getattr(agent, "identity", None)
+    if callable(extra):
+        identity.update(extra())
+    return identity
+
+
+def run_facts(env, agent, spec: str, seed: int, timeout: float | None) -> dict:
+    """What a rollout's JSON records beside its outcome for `results.json`: the agent's
+    identity, the seed, the environment's version, the budgets (the `max_steps` option,
+    "default" for the per-board rule, the episode's `step_limit`, the DRC mode, the rollout's
+    wall-time limit) and the machine (cores, CPU model, load at the rollout's end)."""
+    from pcbdata.core.machine import machine_info
+    from pcbdata.env.registry import VERSION
+
+    base = env.unwrapped
+    max_steps = base.options.max_steps
+    return {"agent_identity": agent_identity(spec, agent), "seed": seed, "env_version": VERSION,
+            "budgets": {"max_steps": "default" if max_steps is None else max_steps,
+                        "step_limit": base.max_steps, "drc": base.options.drc,
+                        "time_limit_s": timeout},
+            "machine": machine_info()}
+
+
 def rollout_task(env_kwargs: dict, agent_spec: str, board_id: str, rollout: int,
-                 out: str, agent_options: dict | None = None) -> dict:
+                 out: str, agent_options: dict | None = None,
+                 timeout: float | None = None) -> dict:
     """Runs and writes one rollout (in a worker process). An agent with an `episode` method
     runs the whole episode itself (the language-model agents); one that sets `board_text`
-    gives the rollout's board as text instead of the environment's board."""
+    gives the rollout's board as text instead of the environment's board. `timeout` is the
+    rollout's wall-time limit, recorded in its JSON."""
     env = worker_env(env_kwargs)
     agent = make_agent(agent_spec, rollout, agent_options)
     if hasattr(agent, "episode"):
@@ -146,7 +183,8 @@ def rollout_task(env_kwargs: dict, agent_spec: str, board_id: str, rollout: int,
         os.replace(tmp, folder / f"{rollout}.kicad_pcb")
     except Exception as exc:  # noqa: BLE001 - a dead engine: the rollout has no board
         record["save_error"] = str(exc)
-    record.update(agent=agent_spec, env_id=env_kwargs["id"], config=env_kwargs["config"])
+    record.update(agent=agent_spec, env_id=env_kwargs["id"], config=env_kwargs["config"],
+                  **run_facts(env, agent, agent_spec, rollout, timeout))
     _write_atomic(folder / f"{rollout}.json", json.dumps(record, indent=1, sort_keys=True))
     return record
 
@@ -188,7 +226,7 @@ def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, 
     env_kwargs = {"id": env_id_for(config), "config": config, "root": str(root),
                   "split": split, **(env_options or {})}
     began, records, failed = time.perf_counter(), [], 0
-    tasks = [(env_kwargs, agent, b, r, str(out), agent_options) for b, r in todo]
+    tasks = [(env_kwargs, agent, b, r, str(out), agent_options, timeout) for b, r in todo]
     with resolve(executor).pool(workers=max(1, min(workers, len(todo) or 1)),
                                 task_timeout=timeout, tasks_per_worker=10**9,
                                 memory_limit_mb=0) as pool:

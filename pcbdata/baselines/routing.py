@@ -6,7 +6,8 @@ Routers: `freeroute` (default) and any `--router-cmd` go through the Specctra ro
 
 Output: `OUT/<board_id>/<rollout>.kicad_pcb` and `<rollout>.json` (status, reason, router and
 its version, `time_s` = wall time of the rollout, `router_s` and `router_cpu_s` of the router
-process) - the layout `pcbdata eval --runs` reads. Re-runs skip rollouts already routed.
+process; `agent_identity`, `seed`, `budgets` and `machine` as `pcbdata rollout` writes them) - the
+layout `pcbdata eval --runs` reads. Re-runs skip rollouts already routed.
 """
 from __future__ import annotations
 
@@ -18,6 +19,7 @@ from pathlib import Path
 from pcbdata.baselines import specctra
 from pcbdata.core.errors import UserError
 from pcbdata.core.fsutil import write_atomic
+from pcbdata.core.machine import machine_info
 from pcbdata.core.tree import BOARD_FILE
 from pcbdata.kicad import kicad_tools_route as kicad_tools
 from pcbdata.kicad.pool import KicadPool
@@ -34,6 +36,8 @@ class RolloutPlan:
     extra_args: tuple
     label: str
     version: str
+    name: str = "freeroute"  # the router: freeroute, kicad-tools or router-cmd
+    seed: int | None = None  # the router's seed, where it takes one (kicad-tools)
 
 
 def rollout_plans(router: str, router_cmd: str | None, rollouts: int,
@@ -43,7 +47,8 @@ def rollout_plans(router: str, router_cmd: str | None, rollouts: int,
             raise UserError("kicad-tools is not installed; run: pip install 'pcbdata[kicad-tools]'")
         seeds = [kicad_tools.SEEDS[r % len(kicad_tools.SEEDS)] for r in range(rollouts)]
         return [RolloutPlan("pcbdata.kicad.kicad_tools_route:route_board", (seed, router_timeout),
-                            f"kicad-tools --seed {seed}", kicad_tools.version()) for seed in seeds]
+                            f"kicad-tools --seed {seed}", kicad_tools.version(), "kicad-tools",
+                            seed) for seed in seeds]
     if router not in ROUTERS:
         raise UserError(f"unknown router {router!r}; "
                         f"use --router {' | '.join(ROUTERS)} or --router-cmd")
@@ -52,7 +57,8 @@ def rollout_plans(router: str, router_cmd: str | None, rollouts: int,
         argv, fix, label = specctra.router_command(router, router_cmd, r)
         version = specctra.freeroute_version() if fix else "unknown"
         route_args = (argv, router_timeout, fix, fix, fix, fix)
-        plans.append(RolloutPlan(specctra.ROUTE, route_args, label, version))
+        plans.append(RolloutPlan(specctra.ROUTE, route_args, label, version,
+                                 "router-cmd" if router_cmd else router))
     return plans
 
 
@@ -88,7 +94,7 @@ def route_set(root: str | Path, config: str, split: str, out: str | Path, router
         for task, task_jobs in jobs.items():
             for outcome in pool.map(task, task_jobs):
                 board_id, r, plan, sidecar = meta[task][outcome.index]
-                record = _record(board_id, r, plan, outcome)
+                record = _record(board_id, r, plan, outcome, router_timeout)
                 counts[record["status"]] += 1
                 write_atomic(sidecar, json.dumps(record, indent=1, sort_keys=True) + "\n")
                 done += 1
@@ -97,10 +103,21 @@ def route_set(root: str | Path, config: str, split: str, out: str | Path, router
     return counts
 
 
-def _record(board_id: str, rollout: int, plan: RolloutPlan, outcome) -> dict:
+def _record(board_id: str, rollout: int, plan: RolloutPlan, outcome,
+            router_timeout: float) -> dict:
+    """A rollout's JSON: outcome and times, and for `results.json` the router as the agent
+    (name, version), its seed, the time limit and the machine."""
     value = outcome.value if outcome.ok else {"ok": False, "reason": outcome.error}
+    version = None if plan.version == "unknown" else plan.version
     return {"board_id": board_id, "rollout": rollout, "router": plan.label,
             "router_version": plan.version,
+            "agent_identity": {"name": plan.name, "version": version,
+                               "checkpoint_sha256": None, "model": None, "base_url": None,
+                               "prompt_version": None, "sampling": None},
+            "seed": plan.seed,
+            "budgets": {"max_steps": None, "step_limit": None, "drc": None,
+                        "time_limit_s": router_timeout},
+            "machine": machine_info(),
             "status": "routed" if value.get("ok") else "failed",
             "reason": value.get("reason", ""),
             "time_s": value.get("seconds", outcome.seconds),

@@ -5,15 +5,31 @@ logits divided by the checkpoint's `sampling_temperature` (1 when it names none)
 policy is so sure of itself that untempered samples repeat the argmax, and @k gains nothing."""
 from __future__ import annotations
 
+from functools import lru_cache
+from pathlib import Path
+
 import numpy as np
 import torch
 
+from pcbdata.core.hashing import sha256_file
 from pcbdata.env.wrappers import features
 from pcbdata.env.wrappers.rl import env_action
 from pcbdata.learn import batch as batching
-from pcbdata.learn.checkpoint import load_policy
+from pcbdata.learn.checkpoint import load_policy, shipped_path
 from pcbdata.learn.derived import EpisodeReader
 from pcbdata.learn.policy import device, to_tensors
+
+
+@lru_cache(maxsize=8)
+def _sha256_of(path: str, mtime_ns: int, size: int) -> str:
+    return sha256_file(path)
+
+
+def checkpoint_sha256(path: Path) -> str:
+    """The checkpoint file's sha256 (memoised per file state: a worker makes one agent per
+    rollout)."""
+    stat = path.stat()
+    return _sha256_of(str(path), stat.st_mtime_ns, stat.st_size)
 
 
 class PolicyAgent:
@@ -22,7 +38,8 @@ class PolicyAgent:
     def __init__(self, seed: int = 0, path: str | None = None,
                  temperature: float | None = None):
         self.device = device()
-        self.policy, self.record = load_policy(path, self.device)
+        self.path = Path(path) if path is not None else shipped_path()
+        self.policy, self.record = load_policy(self.path, self.device)
         self.greedy = seed == 0
         self.generator = torch.Generator(device=self.device).manual_seed(seed)
         self.temperature = float(self.record.get("sampling_temperature", 1.0)
@@ -30,6 +47,12 @@ class PolicyAgent:
         self._layout: features.Layout | None = None
         self._static: features.StaticRows | None = None
         self.reader = EpisodeReader()
+
+    def identity(self) -> dict:
+        """The checkpoint's sha256 and the sampling temperature (rollout 0 takes the argmax),
+        for the rollout's `agent_identity`."""
+        return {"checkpoint_sha256": checkpoint_sha256(self.path),
+                "sampling": {"temperature": self.temperature}}
 
     def act(self, obs, info) -> dict:
         if int(obs["step"]) == 0 or self._layout is None:  # a new episode

@@ -82,6 +82,10 @@ def test_closed_loop_replay_scores_as_scripted(board_set, recording, scripted, t
         assert rec["terminated"] and rec["steps"] == steps, board
         assert llm["prompt_version"] and llm["end"] == "terminated"
         assert llm["options"]["sampling"] == {"temperature": 0.2, "seed": 0, "max_tokens": 512}
+        identity = rec["agent_identity"]  # what results.json reads
+        assert (identity["name"], identity["model"], identity["base_url"]) == (
+            "llm", "replay", server.url)
+        assert identity["sampling"] == {"temperature": 0.2, "seed": 0, "max_tokens": 512}
         acc = llm["accounting"]
         retries = 0 if board == BOARDS[1] else 1  # the resumed rollout met no 429
         assert (acc["requests"], acc["retries"], acc["parse_failures"]) == (steps + retries,

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import json
 
+from pcbdata import __version__
 from pcbdata.cli import main
 
 
@@ -19,6 +20,12 @@ def test_rollout_then_eval(board_set, tmp_path, capsys):
             record = json.loads((runs / board / f"{rollout}.json").read_text())
             assert record["steps"] == 15 and record["time_s"] > 0
             assert (runs / board / f"{rollout}.kicad_pcb").is_file()
+            assert record["seed"] == rollout and record["env_version"] == 2
+            assert record["budgets"] == {"max_steps": 15, "step_limit": 15, "drc": "step",
+                                         "time_limit_s": 3600.0}
+            assert record["agent_identity"]["name"] == "pcbdata.agents.random:RandomAgent"
+            assert record["agent_identity"]["version"] == __version__
+            assert record["machine"]["cores"] >= 1
     assert main(argv) == 0  # resumable: nothing left to run
     assert "nothing to run (4 already done)" in capsys.readouterr().out
     report = tmp_path / "report"
@@ -26,6 +33,10 @@ def test_rollout_then_eval(board_set, tmp_path, capsys):
                  str(runs), "--out", str(report), "--k", "2", "--workers", "1"]) in (0, 1)
     rows = (report / "per_rollout.csv").read_text().splitlines()
     assert len(rows) >= 5 and all(",ok," in row for row in rows[1:5])
+    results = json.loads((report / "results.json").read_text())  # what results.json needs
+    assert results["agent"]["name"] == "pcbdata.agents.random:RandomAgent"
+    assert results["seeds"] == [0, 1] and results["env_id"]["version"] == 2
+    assert results["budgets"] == {"k": 2, "max_steps": 15, "drc": "step", "time_limit_s": 3600.0}
 
 
 def test_rollout_bad_agent_is_a_user_error(board_set, tmp_path, capsys):

@@ -102,6 +102,9 @@ def test_router_cmd_failure_is_recorded(small_set, tmp_path):
     meta = json.loads((runs / "b0" / "0.json").read_text())
     assert meta["status"] == "failed" and "exit 3" in meta["reason"]
     assert not (runs / "b0" / "0.kicad_pcb").exists()
+    # what results.json reads: the router as the agent, its budget, the machine
+    assert meta["agent_identity"]["name"] == "router-cmd" and meta["seed"] is None
+    assert meta["budgets"]["time_limit_s"] == 120.0 and meta["machine"]["cores"] >= 1
 
 
 def test_router_cmd_needs_placeholders(small_set, tmp_path, capsys):
