@@ -17,13 +17,17 @@ import re
 import sys
 from pathlib import Path
 
+from pcbdata import __version__
 from pcbdata.core.errors import UserError
 from pcbdata.core.fsutil import folder_lock, write_atomic
 from pcbdata.core.hashing import sha256_file
 from pcbdata.core.tree import REFERENCE_FILE, list_instances
 from pcbdata.evaluator.accounting import llm_totals
 from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, complete, instance_hash
-from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, convention_of, pick_best
+from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, convention_of
+from pcbdata.evaluator.protocol import board_row, summarize
+from pcbdata.evaluator.results import RESULTS_FILE, results_text
+from pcbdata.evaluator.results import build as build_results
 from pcbdata.evaluator.setcheck import mark, refuse_unverified, set_identity
 from pcbdata.executors import Executor
 from pcbdata.kicad.pool import is_limit_error, memory_limit_from_env
@@ -34,16 +38,11 @@ ROLLOUT_COLUMNS = ["board_id", "rollout", "index", "status", "reason", "cp", "po
                    "drv_by_type", "cp_strict", "drv_strict", "drv_strict_by_type",
                    "pot_evaluation", "penalty_evaluation", "phi_evaluation",
                    "phi_bare_evaluation", "sha256"]
-#: What a board row takes from its kept rollout (the @k choice picks by Pot., strict count).
-BEST_FIELDS = ("cp", "pot", "rout", "drv", "unconnected", "wl", "via", "cp_strict", "drv_strict",
-               "pot_evaluation")
-#: A board with no scored rollout is the bare board in the set's figures (SPEC 4): nothing
-#: routed, nothing gained. WL, Via and DRV have no value for it.
-NO_SCORED_ROLLOUT = {"cp": 0, "cp_strict": 0, "rout": 0.0, "pot": 0.0, "pot_evaluation": 0.0}
 BOARD_COLUMNS = ["board_id", "n_rollouts", "n_ok", "n_invalid", "n_parse_fail", "parse_fail",
                  "best_rollout", "cp", "pot", "rout", "drv", "unconnected", "wl", "via", "time",
                  "cp_strict", "drv_strict", "pot_evaluation"]
 CACHE_NAME = "scores.jsonl"
+KICAD_VERSION = "pcbdata.kicad.basics:kicad_version"
 #: What a cache line keeps of a record: every figure is derived again from `raw` on reading.
 STORED_FIELDS = ("status", "reason", "raw", "sha256", "score_seconds")
 
@@ -178,60 +177,6 @@ def load_cache(path: Path) -> tuple[dict[str, dict], int]:
     return cache, tampered
 
 
-def _mean(values: list) -> float | None:
-    """Mean of the known values, summed exactly so that the order of the rows cannot change it."""
-    values = [v for v in values if v is not None]
-    return math.fsum(values) / len(values) if values else None
-
-
-def board_row(board_id: str, records: list[dict]) -> dict:
-    """The @k result of one board from its rollout records."""
-    best = pick_best(records)
-    n_parse = sum(r["status"] == "parse_fail" for r in records)
-    row = {"board_id": board_id, "n_rollouts": len(records),
-           "n_ok": sum(r["status"] == "ok" for r in records),
-           "n_invalid": sum(r["status"] == "invalid" for r in records),
-           "n_parse_fail": n_parse, "parse_fail": int(n_parse == len(records)),
-           "time": _mean([r.get("time") for r in records])}
-    if best is None:
-        row.update({key: None for key in BEST_FIELDS}, best_rollout=None, **NO_SCORED_ROLLOUT)
-    else:
-        row.update({key: best.get(key) for key in BEST_FIELDS}, best_rollout=best["rollout"])
-    return row
-
-
-def summarize(board_rows: list[dict], rollouts: list[dict], k: int) -> dict:
-    """The per-set summary. CP, Rout. and Pot. average over all boards (a board with no scored
-    rollout counts as its bare board: `NO_SCORED_ROLLOUT`); DRV, WL and Via over boards with a
-    scored rollout (`n_boards_scored`); Time over the rollouts that report one (`n_timed`);
-    parse_fail over boards, parse_fail_at1 and invalid over rollouts."""
-    n = len(board_rows)
-    n_roll = len(rollouts)
-    return {
-        "n_boards": n,
-        "k": k,
-        "cp": _mean([r["cp"] for r in board_rows]),
-        "cp_strict": _mean([r["cp_strict"] for r in board_rows]),
-        "pot": _mean([r["pot"] for r in board_rows]),
-        "pot_evaluation": _mean([r["pot_evaluation"] for r in board_rows]),
-        "rout": _mean([r["rout"] for r in board_rows]),
-        "drv": _mean([r["drv"] for r in board_rows]),
-        "drv_strict": _mean([r.get("drv_strict") for r in board_rows]),
-        "wl": _mean([r["wl"] for r in board_rows]),
-        "via": _mean([r["via"] for r in board_rows]),
-        "time": _mean([r.get("time") for r in rollouts]),
-        "n_timed": sum(r.get("time") is not None for r in rollouts),
-        "parse_fail": (sum(r["parse_fail"] for r in board_rows) / n) if n else None,
-        "parse_fail_at1": ((sum(r["status"] == "parse_fail" for r in rollouts) / n_roll)
-                           if n_roll else None),
-        "invalid": (sum(r["status"] == "invalid" for r in rollouts) / n_roll) if n_roll else None,
-        "n_rollouts": n_roll,
-        "n_invalid": sum(r["status"] == "invalid" for r in rollouts),
-        "n_parse_fail_rollouts": sum(r["status"] == "parse_fail" for r in rollouts),
-        "n_boards_scored": sum(r["best_rollout"] is not None for r in board_rows),
-    }
-
-
 def _fmt(value, digits: int = 2) -> str:
     if value is None:
         return "-"
@@ -335,7 +280,7 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                  limit: int | None = None, executor: Executor | str | None = None,
                  use_cache: bool = True, allow_unverified: bool = False) -> dict:
     """Scores a submission (or the reference boards) on one config/split; writes REPORT files
-    and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl` (time and
+    (`results.json` among them: `pcbdata.evaluator.results`) and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl` (time and
     memory limits hit too, under the same limits); a cached record that does not match its
     digest is scored again, and `use_cache=False` scores everything again (the way to trust a
     REPORT folder someone else wrote). `limit` scores only the first N boards of the split (in
@@ -364,8 +309,8 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
         runs_dir, [b for b, _ in every], [b for b, _ in instances], k)
     out.mkdir(parents=True, exist_ok=True)
     with folder_lock(out, "written"):  # a second eval into REPORT waits: reports never mix
-        records, cache_stats = _score_plan(plan, instances, out, weights, workers, task_timeout,
-                                           progress, executor, use_cache)
+        records, cache_stats, kicad_version = _score_plan(
+            plan, instances, out, weights, workers, task_timeout, progress, executor, use_cache)
         rollout_rows = _rollout_rows(plan, records, reference, warnings)
         if warnings and progress and runs_dir is not None:
             _print_warnings(warnings, runs_dir)
@@ -392,7 +337,11 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
             summary["llm"] = llm  # language-model accounting, only when rollouts record it
         label = name or ("Reference" if runs_dir is None else runs_dir.name)
         table = markdown_table([(label, summary)])
-        _write_report(out, label, summary, table, rollout_rows, board_rows)
+        context = {"set_folder": root, "runs": runs_dir, "kicad_version": kicad_version,
+                   "pcbdata_version": __version__}
+        results = build_results(summary, label, rollout_rows, [p[4] for p in plan],
+                                _read_sidecar, context)
+        _write_report(out, label, summary, table, rollout_rows, board_rows, results)
         return {"summary": summary, "table": table, "rollouts": rollout_rows,
                 "boards": board_rows}
 
@@ -450,9 +399,10 @@ def _plan(instances: list[tuple[str, Path]], runs: Path | None, k: int) -> Plan:
 def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weights: Weights,
                 workers: int, task_timeout: float, progress: bool,
                 executor: Executor | str | None = None,
-                use_cache: bool = True) -> tuple[list[dict], dict]:
+                use_cache: bool = True) -> tuple[list[dict], dict, str | None]:
     """(the record of every rollout of `plan`: from the cache, else scored and cached; what
-    the cache gave: `tampered` lines scored again, `used` False with --no-cache)."""
+    the cache gave: `tampered` lines scored again, `used` False with --no-cache; the KiCad
+    version of the workers, None if none answered)."""
     cache_path = out / CACHE_NAME
     cache, tampered = load_cache(cache_path) if use_cache else ({}, 0)
     if tampered and progress:
@@ -478,19 +428,30 @@ def _score_plan(plan: Plan, instances: list[tuple[str, Path]], out: Path, weight
         print(f"pcbdata eval: {len(plan)} rollouts on {len(instances)} boards; "
               f"{len(plan) - len(todo)} cached, {len(todo)} to score", file=sys.stderr)
     stats = {"used": use_cache, "tampered": tampered}  # no run-dependent count: re-runs match
-    if todo:
-        with Evaluator(workers=workers, weights=weights, task_timeout=task_timeout,
-                       executor=executor) as evaluator, \
-                open(cache_path, "a" if use_cache else "w", encoding="utf-8") as cache_file:
-            pairs = [(plan[i][3], plan[i][4]) for i in todo]
-            for done, (j, record) in enumerate(evaluator.score_many(pairs), start=1):
-                i = todo[j]
-                record["sha256"] = "" if routed_hashes[i] == "missing" else routed_hashes[i]
-                records[i] = record
-                _cache_record(cache_file, keys[i], record, limits)
-                if progress and (done % 50 == 0 or done == len(todo)):
-                    print(f"  scored {done}/{len(todo)}", file=sys.stderr)
-    return [r for r in records if r is not None], stats
+    if not todo:
+        with Evaluator(workers=1, task_timeout=task_timeout, executor=executor) as evaluator:
+            return [r for r in records if r is not None], stats, engine_version(evaluator.pool)
+    with Evaluator(workers=workers, weights=weights, task_timeout=task_timeout,
+                   executor=executor) as evaluator, \
+            open(cache_path, "a" if use_cache else "w", encoding="utf-8") as cache_file:
+        pairs = [(plan[i][3], plan[i][4]) for i in todo]
+        for done, (j, record) in enumerate(evaluator.score_many(pairs), start=1):
+            i = todo[j]
+            record["sha256"] = "" if routed_hashes[i] == "missing" else routed_hashes[i]
+            records[i] = record
+            _cache_record(cache_file, keys[i], record, limits)
+            if progress and (done % 50 == 0 or done == len(todo)):
+                print(f"  scored {done}/{len(todo)}", file=sys.stderr)
+        version = engine_version(evaluator.pool)
+    return [r for r in records if r is not None], stats, version
+
+
+def engine_version(pool) -> str | None:
+    """The KiCad version of `pool`'s workers, or None when no worker answers."""
+    try:
+        return str(pool.call(KICAD_VERSION))
+    except Exception:  # noqa: BLE001 - a worker that cannot start: the version is not known
+        return None
 
 
 def _cache_record(cache_file, key: str, record: dict, limits: tuple[float, int]) -> None:
@@ -529,7 +490,8 @@ def set_line(identity: dict) -> str:
 
 
 def _write_report(out: Path, label: str, summary: dict, table: str, rollout_rows: list[dict],
-                  board_rows: list[dict]) -> None:
+                  board_rows: list[dict], results: dict) -> None:
+    write_atomic(out / RESULTS_FILE, results_text(results))
     write_atomic(out / "per_rollout.csv", _csv(rollout_rows, ROLLOUT_COLUMNS))
     write_atomic(out / "per_board.csv", _csv(board_rows, BOARD_COLUMNS))
     write_atomic(out / "summary.json", json.dumps(summary, indent=1, sort_keys=True) + "\n")
