@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Everything a fresh machine needs: KiCad 9.0.8 (bookworm-backports), a venv made from the
-# system Python (which is the one that can import pcbnew), the package with its test extras
-# and the DRC-wait preload (build/fastwait/).
+# system Python (which is the one that can import pcbnew), the package with its test extras,
+# the DRC-wait preload (build/fastwait/) and Debian's chromium (the leaderboard's browser test).
 # Idempotent: a second run only checks.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -11,6 +11,12 @@ bash scripts/install-kicad.sh
 if ! /usr/bin/python3 -c "import ensurepip" 2>/dev/null; then
     sudo_cmd=""; [ "$(id -u)" = 0 ] || sudo_cmd="sudo"
     DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq python3-venv >/dev/null
+fi
+# Headless Chromium for the leaderboard site's browser test (tests/cli/test_leaderboard.py).
+if ! command -v chromium >/dev/null 2>&1; then
+    sudo_cmd=""; [ "$(id -u)" = 0 ] || sudo_cmd="sudo"
+    $sudo_cmd apt-get update -qq >/dev/null
+    DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq chromium >/dev/null
 fi
 if [ ! -x .venv/bin/python ]; then
     /usr/bin/python3 -m venv --system-site-packages .venv
