@@ -280,10 +280,11 @@ def evaluate_set(root: str | Path, config: str, split: str, out: str | Path,
                  limit: int | None = None, executor: Executor | str | None = None,
                  use_cache: bool = True, allow_unverified: bool = False) -> dict:
     """Scores a submission (or the reference boards) on one config/split; writes REPORT files
-    (`results.json` among them: `pcbdata.evaluator.results`) and returns the summary. Re-runs reuse scores cached in `out/scores.jsonl` (time and
-    memory limits hit too, under the same limits); a cached record that does not match its
-    digest is scored again, and `use_cache=False` scores everything again (the way to trust a
-    REPORT folder someone else wrote). `limit` scores only the first N boards of the split (in
+    (`results.json` among them: `pcbdata.evaluator.results`) and returns the summary. Re-runs
+    reuse scores cached in `out/scores.jsonl` (time and memory limits hit too, under the same
+    limits); a cached record that does not match its digest is scored again, and
+    `use_cache=False` scores everything again (the way to trust a REPORT folder someone else
+    wrote). `limit` scores only the first N boards of the split (in
     board-id order). A second call on the same `out` waits for the first. The boards are
     scored on `executor` (default: this machine's workers; `pcbdata.executors`; `workers` is
     the local executor's), with the same report whichever scores them. The scored split's

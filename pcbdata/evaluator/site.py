@@ -16,6 +16,7 @@ import tempfile
 from collections.abc import Callable
 from html import escape
 from pathlib import Path
+from urllib.parse import quote
 
 from pcbdata.core.errors import UserError
 from pcbdata.core.tree import BOARD_FILE, REFERENCE_FILE, board_dir
@@ -186,7 +187,8 @@ def file_page(entry, pictures: dict[str, str]) -> str:
     for board in data["boards"]:
         board_id = board["board_id"]
         picture = pictures.get(board_id, "pictures not drawn")
-        shown = (f"<img class=\"board\" src=\"{escape(picture)}\" alt=\"{escape(board_id)}\" "
+        shown = (f"<img class=\"board\" src=\"{escape(quote(picture))}\" "
+                 f"alt=\"{escape(board_id)}\" "
                  f"loading=\"lazy\">" if picture.endswith(".png")
                  else f"<p class=\"note\">No picture: {escape(picture)}</p>")
         parts.append(f"<section id=\"{escape(board_id)}\"><h2>{escape(board_id)}</h2>"
