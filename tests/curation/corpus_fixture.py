@@ -187,14 +187,21 @@ def make_corpus(root: Path) -> Path:
 
 def fixture_recipe(path: Path) -> Path:
     """The packaged recipe scaled down to the fixture: A = 3 boards, B = pads <= 12,
-    2 bins, plus an exclusion override."""
+    2 bins, no published test lists (the fixture has none of those boards), boards with open
+    connections dropped (`max_unconnected = 0`, to exercise the `not_connected` fate), plus an
+    exclusion override."""
+    import re
+
     from pcbdata.resources import resource_path
 
     text = resource_path("recipes", "d3.toml").read_text()
     text = text.replace("a_size = 100", "a_size = 3").replace("b_max_pads = 100",
                                                               "b_max_pads = 12")
-    text = text.replace("bins = 10", "bins = 2").replace('version = "1.0.0"',
-                                                         'version = "1.0.0-fixture"')
+    text = text.replace("bins = 10", "bins = 2").replace('version = "2.0.0"',
+                                                         'version = "2.0.0-fixture"')
+    text = text.replace("max_errors = 0\n", "max_errors = 0\nmax_unconnected = 0\n")
+    text = re.sub(r"\[published\]\n(?:.*\n)*?\]\n(?:.*\n)*?\]\n", "", text)
+    assert "[published]" not in text and "max_unconnected = 0" in text
     text = text.replace("task_timeout_s = 300", "task_timeout_s = 120")
     text += ('\n[[overrides]]\nkind = "exclude"\nboard = "sierra_excluded"\n'
              'reason = "fixture: exercise the exclusion override"\n')

@@ -114,7 +114,7 @@ def test_board_files_and_manifest(fixture_build):
     counts = {}
     for config, entry in manifest["configs"].items():
         assert entry["recipe_sha256"] == recipe_sha and entry["recipe_version"] == \
-            "1.0.0-fixture"
+            "2.0.0-fixture"
         assert entry["kicad_version"].startswith("9.0.8")
         assert len(entry["source"]["snapshot_sha256"]) == 64
         for split, data in entry["splits"].items():

@@ -35,7 +35,9 @@ def test_packaged_recipe_holds_the_spec_numbers():
     assert r.engine.kicad_version == "9.0.8"
     kinds = {(o.kind, o.board) for o in r.all_overrides}
     assert kinds == {("exclude_from_test", "karabas-nano_wifi_revA"),
-                     ("replace_pick", "badge2016_Badge_init")}
+                     ("replace_pick", "badge2016_Badge_init"),
+                     ("exclude_after_picks", "hackaday_esp-14_power_meter__autosave-esp-14")}
+    assert (r.keep.max_errors, r.keep.max_unconnected) == (0, None)  # step 3
     assert all(o.reason.strip() for o in r.all_overrides)
     assert len(r.sha256) == 64 and r.version
 
