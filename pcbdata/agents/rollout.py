@@ -34,14 +34,15 @@ AGENTS = {"scripted": "pcbdata.agents.scripted:ScriptedAgent",
           "llm": "pcbdata.agents.llm_agents:LLMAgent",
           "llm-plan": "pcbdata.agents.llm_agents:PlanAgent",
           "llm-direct": "pcbdata.agents.llm_agents:DirectAgent",
-          "policy": "pcbdata.learn.agent:PolicyAgent"}
+          "policy": "pcbdata.learn.agent:PolicyAgent",
+          "negotiated": "pcbdata.agents.negotiated:NegotiatedAgent"}
 
 
 def make_agent(spec: str, seed: int, options: dict | None = None):
     """An agent by name (`AGENTS`: scripted, scripted-shove, random, d1, llm, llm-plan,
-    llm-direct, policy), `policy:CHECKPOINT` (the learned router with another checkpoint) or
-    `module:Class`; seeded when it takes one; `options` (plain data, e.g. a language model's
-    server and sampling) are passed as keyword arguments."""
+    llm-direct, policy, negotiated), `policy:CHECKPOINT` (the learned router with another
+    checkpoint) or `module:Class`; seeded when it takes one; `options` (plain data, e.g. a
+    language model's server and sampling) are passed as keyword arguments."""
     if spec.startswith("policy:"):
         return _policy_agent(spec.partition(":")[2], seed)
     ref = AGENTS.get(spec, spec)
@@ -76,6 +77,9 @@ def run_episode(env, agent, board_id: str, seed: int) -> dict:
     the summed reward is Phi of the saved board minus Phi of the bare one."""
     began = time.perf_counter()
     obs, info = env.reset(seed=seed, options={"board_id": board_id})
+    attach = getattr(agent, "attach", None)
+    if attach is not None:  # an agent that plans on the board's read-only view (negotiated)
+        attach(env.unwrapped)
     total, steps, terminated, truncated = 0.0, 0, False, False
     while not (terminated or truncated):
         act = agent.act(obs, info)

@@ -7,8 +7,8 @@ import sys
 from pcbdata.cli import _executor_options
 
 VERB = "rollout"
-HELP = ("route a board set with an agent (scripted, scripted-shove, d1, random, llm, llm-plan, "
-        "llm-direct, module:Class)")
+HELP = ("route a board set with an agent (scripted, scripted-shove, negotiated, d1, random, llm, "
+        "llm-plan, llm-direct, module:Class)")
 #: The language-model options: flag -> (option name of pcbdata.agents.llm_client, type).
 LLM_FLAGS = {"--base-url": ("base_url", str), "--model": ("model", str),
              "--api-key-env": ("api_key_env", str), "--temperature": ("temperature", float),
@@ -49,7 +49,8 @@ def register(parser) -> None:
                              "(one request: the whole action sequence), llm-direct (one "
                              "request: the copper as .kicad_pcb items), policy (the shipped "
                              "learned router; policy:CHECKPOINT for another, docs/learn.md), "
-                             "or module:Class with act(obs, info)")
+                             "negotiated (plans every connection at once with rip-up and "
+                             "reroute, then lays the plan), or module:Class with act(obs, info)")
     parser.add_argument("--rollouts", type=int, default=1, help="rollouts per board (seeds 0..)")
     parser.add_argument("--out", required=True, metavar="RUNS",
                         help="RUNS/<board_id>/<rollout>.kicad_pcb + .json (pcbdata eval reads it)")

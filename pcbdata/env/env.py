@@ -29,11 +29,13 @@ from pcbdata.env.types import (
     MAKE_LINE,
     MAKE_VIA,
     MODES,
+    NET,
     NET_END,
     NET_SELECT,
     PHASES,
     ROUTING,
     START_ROUTE,
+    BoardView,
     Head,
 )
 from pcbdata.env.viewer import RENDER_MODES, RENDER_SIZE, state_records
@@ -251,6 +253,8 @@ class RoutingEnv(gym.Env):
         return obs, 0.0, self._terminated, self._truncated, info
 
     def _masked(self, a) -> str | None:
+        if a.point is not None:
+            return self._point_masked(a)
         m, name = self._masks, ACTION_TYPES[a.type]
         if not m["type"][a.type]:
             return f"{name} is masked in phase {PHASES[masks.phase_of(self._net, self._head)]}"
@@ -265,6 +269,58 @@ class RoutingEnv(gym.Env):
             return f"{name}: mode {MODES[a.mode]}: " + self._mode_reasons.get(MODES[a.mode], "")
         return None
 
+    def _point_masked(self, a) -> str | None:
+        """Why a free-coordinate action cannot be taken (None: it can)."""
+        name, phase = ACTION_TYPES[a.type], masks.phase_of(self._net, self._head)
+        wanted = {START_ROUTE: NET, MAKE_LINE: ROUTING, MAKE_VIA: ROUTING}
+        if a.type not in wanted:
+            return f"{name} takes no x, y (the free-coordinate form is for start_route, " \
+                   f"make_line and make_via)"
+        if phase != wanted[a.type]:
+            return f"{name} is masked in phase {PHASES[phase]}"
+        if a.layer is not None and a.layer >= len(self.static.layers):
+            return f"{name}: layer {a.layer} out of range [0, {len(self.static.layers)})"
+        if a.type == START_ROUTE:
+            if a.layer is None:
+                return "start_route by coordinates needs a layer"
+            return None if self._anchor(a.point, a.layer) else (
+                f"start_route: ({a.point[0] / 1e6:.3f}, {a.point[1] / 1e6:.3f}) mm on "
+                f"{self.static.layers[a.layer]} is no pad centre, track end or via of net "
+                f"{self._net!r} (within {masks.POINT_TOLERANCE_NM / 1e6:g} mm)")
+        if a.type == MAKE_VIA and self.static.grid_pitch is not None:
+            return "make_via: D1 boards route on F.Cu only"
+        if not masks.inside(self.static, a.point[0], a.point[1], 0):
+            return f"{name}: ({a.point[0] / 1e6:.3f}, {a.point[1] / 1e6:.3f}) mm is outside " \
+                   f"the board outline"
+        if (a.type == MAKE_LINE and a.layer is not None
+                and a.layer != self._current_head().layer):
+            return "make_line stays on the head's layer (layer must be the head's or absent)"
+        if not self._masks["mode"][a.mode]:
+            return f"{name}: mode {MODES[a.mode]}: " + self._mode_reasons.get(MODES[a.mode], "")
+        return None
+
+    def _anchor(self, point, layer: int) -> Head | None:
+        """The head a free-coordinate start_route takes: the pad centre, track end or via of
+        the current net on `layer` nearest `point` within the tolerance (None: none)."""
+        s, near = self.static, []
+        for i in s.pads_of(self._net):
+            if layer in s.pads[i].layers:
+                near.append((s.pads[i].x, s.pads[i].y))
+        name = s.layers[layer]
+        for r in self._snap["copper"]:
+            if r["net"] != self._net:
+                continue
+            if r["kind"] == "via":
+                near.append((r["x"], r["y"]))
+            elif r["layer"] == name:
+                near += [tuple(r["start"]), tuple(r["end"])]
+        best = min(near, key=lambda p: ((p[0] - point[0]) ** 2 + (p[1] - point[1]) ** 2, p),
+                   default=None)
+        if best is None or max(abs(best[0] - point[0]),
+                               abs(best[1] - point[1])) > masks.POINT_TOLERANCE_NM:
+            return None
+        return Head(int(best[0]), int(best[1]), layer)
+
     def _do(self, a) -> tuple[dict | None, bool]:
         """Carries out an allowed action; returns (router report, copper changed)."""
         if a.type == NET_SELECT:
@@ -274,8 +330,11 @@ class RoutingEnv(gym.Env):
             self._net, self._head = None, None
             return None, changed
         elif a.type == START_ROUTE:
-            c = self._cands[a.candidate]
-            self._head = Head(c.x, c.y, c.layer)
+            if a.point is not None:
+                self._head = self._anchor(a.point, a.layer)
+            else:
+                c = self._cands[a.candidate]
+                self._head = Head(c.x, c.y, c.layer)
         elif a.type in (MAKE_LINE, MAKE_VIA, FINISH):
             return self._route(a)
         return None, False
@@ -283,12 +342,15 @@ class RoutingEnv(gym.Env):
     def _route(self, a) -> tuple[dict, bool]:
         s, net, times = self.static, self._net_rules(), self.timings["router_s"]
         head = self._current_head()
-        goal = (self._cands[a.candidate].x, self._cands[a.candidate].y)
+        if a.point is not None:
+            goal, target = a.point, a.layer
+        else:
+            c = self._cands[a.candidate]
+            goal, target = (c.x, c.y), c.layer
         if a.type == MAKE_LINE:
             done = routing.make_line(s, self._get_router, net, head, goal, a.mode, times)
         elif a.type == MAKE_VIA:
-            done = routing.make_via(s, self._get_router, net, head, goal, a.mode, times,
-                                    self._cands[a.candidate].layer)
+            done = routing.make_via(s, self._get_router, net, head, goal, a.mode, times, target)
         else:
             done = routing.finish(s, self._get_router, net, head, self._finish_targets(),
                                   a.mode, self.options.finish_tries, times)
@@ -309,6 +371,15 @@ class RoutingEnv(gym.Env):
             self._prune([n for n in done.moved if n != self._net])
         self._head = done.head
         return report, bool(done.edits)
+
+    def board_view(self) -> BoardView:
+        """The board as pcbdata's router sees it, read-only plain data (`types.BoardView`)."""
+        from pcbdata.env.geometry_bridge import board_geometry
+
+        if self.static is None:
+            raise EnvValueError("call reset() first")
+        return BoardView(self.static, board_geometry(self.static, self._snap["copper"]),
+                         tuple(int(c) for c in self._snap["pad_cluster"]))
 
     def _get_router(self):
         """The episode's walkaround router, brought up to date with the board's copper (one

@@ -33,6 +33,10 @@ from pcbdata.env.types import (
     StaticBoard,
 )
 
+#: How far a free-coordinate `start_route` point may lie from the pad centre, track end or via
+#: it names (nm): 0.001 mm, the paper's three decimals.
+POINT_TOLERANCE_NM = 1000
+
 #: Modes an environment cannot offer, with the reason (none today; kept for modes to come).
 MODE_UNAVAILABLE: dict[int, str] = {}
 
@@ -56,7 +60,7 @@ def net_mask(static: StaticBoard, size: int) -> np.ndarray:
     return mask
 
 
-def _inside(static: StaticBoard, x: int, y: int, margin: int) -> bool:
+def inside(static: StaticBoard, x: int, y: int, margin: int) -> bool:
     """(x, y) inside the outer outline ring, at least `margin` from its edges."""
     ring = static.outline[0]
     inside = False
@@ -87,7 +91,7 @@ def candidate_masks(static: StaticBoard, cands: list[Candidate], head: Head | No
         if head is None:
             line[i] = c.kind in (PAD, VIA, TRACK_END)
             continue
-        if c.kind == RING and not _inside(static, c.x, c.y, margin):
+        if c.kind == RING and not inside(static, c.x, c.y, margin):
             continue
         if c.layer == head.layer:
             line[i] = (c.x, c.y) != (head.x, head.y)

@@ -87,3 +87,16 @@ class StaticBoard:
 
     def pads_of(self, net: str) -> list[int]:
         return [i for i, pad in enumerate(self.pads) if pad.net == net]
+
+
+@dataclass(frozen=True)
+class BoardView:
+    """A read-only plain-data view of the board as pcbdata's router sees it
+    (`RoutingEnv.board_view`): the static board, every piece of copper (pads, zones, drawings,
+    tracks, vias; `pcbdata.router.geometry.BoardGeometry`) and the copper cluster of each pad
+    (KiCad's connectivity: pads of a net in one cluster are joined). For agents that plan; all
+    copper still reaches KiCad through actions."""
+
+    static: StaticBoard
+    geometry: object  # pcbdata.router.geometry.BoardGeometry
+    pad_cluster: tuple[int, ...]  # per pad of `static.pads`

@@ -1,0 +1,125 @@
+"""The negotiated agent (`--agent negotiated`): plans every open connection of the board at once
+with rip-up and reroute (`pcbdata.router.negotiate`), then lays the plan through the
+environment's actions.
+
+It reads the board once, at its first step, through the environment's read-only plain-data view
+(`RoutingEnv.board_view`, handed over by the runner through `attach`); every piece of copper
+reaches KiCad through actions, in pcbdata's free-coordinate form: per wire `net_select`,
+`start_route` at the wire's first pad centre (with its layer), `make_line` to each corner and
+`make_via` at each via in `mark_obstacles` mode (the line exactly as planned: the planner kept
+the clearance), and `net_end`. A wire whose step the environment refuses is abandoned at that
+step (`net_end` takes up what it left dangling) and the agent goes on with the next one. The
+plan is deterministic (counted work), so every rollout of a board is the same episode.
+"""
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from pcbdata.env.types import (
+    MAKE_LINE,
+    MAKE_VIA,
+    MARK_OBSTACLES,
+    NET_END,
+    NET_SELECT,
+    START_ROUTE,
+    BoardView,
+)
+from pcbdata.router.negotiate import (
+    BUDGET_ROUTES,
+    End,
+    Negotiator,
+    NetRule,
+    Plan,
+    Wire,
+    spanning_connections,
+)
+
+
+def _mm(point) -> tuple[float, float]:
+    return point[0] / 1e6, point[1] / 1e6
+
+
+def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES) -> tuple[Plan, list]:
+    """The negotiated plan of a board's open connections and those connections."""
+    static = view.static
+    routed = {n.name for n in static.nets if n.name}
+    pads = []
+    for i, pad in enumerate(static.pads):
+        if pad.net not in routed or len(static.pads_of(pad.net)) < 2:
+            continue
+        reach = max(pad.size) // 2
+        pads.append((pad.net, End(pad.x, pad.y, tuple(static.layers[k] for k in pad.layers),
+                                  reach), view.pad_cluster[i]))
+    connections = spanning_connections(pads)
+    rules = {n.name: NetRule(n.track_width, n.clearance, n.via_diameter, n.via_drill)
+             for n in static.nets}
+    layers = static.layers if static.grid_pitch is None else static.layers[:1]
+    negotiator = Negotiator(view.geometry, layers, rules, connections,  # type: ignore[arg-type]
+                            budget_routes=budget_routes)
+    return negotiator.run(), connections
+
+
+def wire_actions(view: BoardView, wire: Wire) -> list[dict]:
+    """The actions that lay one wire, from `net_select` to `net_end`."""
+    static = view.static
+    layer = {name: i for i, name in enumerate(static.layers)}
+    first_layer, first_path = wire.legs[0]
+    x, y = _mm(first_path[0])
+    out: list[dict] = [{"type": NET_SELECT, "net": static.net_index(wire.net)},
+           {"type": START_ROUTE, "x": x, "y": y, "layer": layer[first_layer]}]
+    for i, (_, path) in enumerate(wire.legs):
+        corners = list(path[1:])
+        via = i < len(wire.vias)
+        for point in corners[:-1] if via else corners:
+            px, py = _mm(point)
+            out.append({"type": MAKE_LINE, "x": px, "y": py, "mode": MARK_OBSTACLES})
+        if via:
+            vx, vy = _mm(wire.vias[i])
+            out.append({"type": MAKE_VIA, "x": vx, "y": vy, "mode": MARK_OBSTACLES,
+                        "layer": layer[wire.legs[i + 1][0]]})
+    out.append({"type": NET_END})
+    return out
+
+
+class NegotiatedAgent:
+    """`act(obs, info)` over the environment's actions; see the module doc."""
+
+    def __init__(self, seed: int = 0, budget_routes: int = BUDGET_ROUTES):
+        self.seed = seed
+        self.budget_routes = budget_routes
+        self._view: Callable[[], BoardView] | None = None
+        self._queue: list[list[dict]] = []
+        self._current: list[dict] = []
+        self._planned = False
+        self.plan: Plan | None = None
+        self.done = False
+
+    def attach(self, env) -> None:
+        """The runner hands over the environment (its `board_view` only is read)."""
+        self._view = env.board_view
+        self._queue, self._current, self._planned, self.done = [], [], False, False
+
+    def act(self, obs, info) -> dict:
+        if not self._planned:
+            self._make_plan()
+        if self._current and self._refused(info):
+            self._current = [{"type": NET_END}] if info.get("phase") != "no_net" else []
+        if not self._current:
+            if not self._queue:
+                self.done = True
+                return {"type": NET_END} if info.get("phase") != "no_net" else {"type": 0}
+            self._current = self._queue.pop(0)
+        return self._current.pop(0)
+
+    @staticmethod
+    def _refused(info) -> bool:
+        router = info.get("router") or {}
+        return bool(info.get("rejected")) or router.get("ok") is False
+
+    def _make_plan(self) -> None:
+        if self._view is None:
+            raise RuntimeError("NegotiatedAgent needs the environment: call attach(env) first")
+        view = self._view()
+        self.plan, _ = plan_board(view, self.budget_routes)
+        self._queue = [wire_actions(view, w) for _, w in sorted(self.plan.wires.items())]
+        self._planned = True

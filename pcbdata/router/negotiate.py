@@ -1,0 +1,364 @@
+"""Negotiated routing on plain geometry: every open connection of a board planned at once, with
+rip-up and reroute, before any copper is laid.
+
+Connections: per net, a minimum spanning tree over its pad clusters (Kruskal on the shortest
+pad-to-pad distance between two clusters), routed shortest first. A connection is tried by the
+walkaround router (`pcbdata.router.walkaround`) on a layer both ends are on, then through one
+via (ends on different layers), then through two vias (a leg on another layer between two
+vias, for ends on one side whose own layer is blocked); via spots are a ring around each end
+and points along the straight line, those a via fits at (`vias_fit`) nearest the straight
+line first.
+
+A connection that finds no way is searched again on the board without the other connections'
+planned copper (pads, zones, existing copper stay). If that finds a way, the connections whose
+planned copper the way passes too close to are ripped up (exact distances, as push_n_shove's
+blockers), the connection takes its way and the ripped ones are queued again ahead of the rest;
+a connection is ripped at most `max_rips` times (then it is never a blocker again), so the loop
+ends. A connection with no way even on the board without planned copper is *boxed in*; one
+that has a way there but only through copper that may not be ripped is *congested*; one that
+ran out of the budget is *budget*. The best state seen (most connections routed, then least
+wire) is the plan. Work is counted in route calls (`budget_routes`), never timed: the same
+board gives the same plan on any machine.
+
+Every leg is a walkaround path and every via fits where it stands, so the planned copper
+keeps clearance by construction; KiCad judges it when it is laid (`pcbdata.agents.negotiated`
+lays it through the environment's free-coordinate actions). Nothing here imports KiCad.
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import shapely
+
+from pcbdata.router.geometry import BoardGeometry, CopperItem, Point, copper_core
+from pcbdata.router.walkaround import HEADINGS, TOLERANCE, RouteRequest, WalkaroundRouter
+
+#: Route calls a plan may make (the budget), and rip-ups of one connection at most.
+BUDGET_ROUTES = 3000
+MAX_RIPS = 3
+#: Via spots tried per layer change (nearest the straight line first), and per end for the
+#: two-via way (each pair costs up to three route calls).
+VIA_TRIES = 6
+VIA_PAIR_TRIES = 3
+#: Ring distances of via spots around an end, in units of (pad radius + via radius + clearance).
+RING_STEPS = (1.0, 1.5, 2.2)
+CAUSES = ("boxed_in", "congestion", "budget")
+
+
+@dataclass(frozen=True)
+class End:
+    """One end of a connection: a pad centre, the copper layers it is on, and how far its
+    copper reaches from the centre (for via spots beside it)."""
+
+    x: int
+    y: int
+    layers: tuple[str, ...]
+    reach: int = 0
+
+    @property
+    def at(self) -> Point:
+        return (self.x, self.y)
+
+
+@dataclass(frozen=True)
+class Connection:
+    net: str
+    a: End
+    b: End
+
+    @property
+    def length(self) -> float:
+        return math.hypot(self.a.x - self.b.x, self.a.y - self.b.y)
+
+
+@dataclass(frozen=True)
+class NetRule:
+    width: int
+    clearance: int
+    via_diameter: int
+    via_drill: int
+
+
+@dataclass(frozen=True)
+class Wire:
+    """A planned connection: legs (layer, octilinear path) joined end to end by vias
+    (`vias[i]` joins `legs[i]` and `legs[i + 1]`)."""
+
+    net: str
+    legs: tuple[tuple[str, tuple[Point, ...]], ...]
+    vias: tuple[Point, ...] = ()
+
+    def items(self, rule: NetRule, layers: tuple[str, ...]) -> list[CopperItem]:
+        out = [CopperItem(kind="track", net=self.net, layers=(layer,), start=a, end=b,
+                          width=rule.width, clearance=rule.clearance)
+               for layer, path in self.legs for a, b in zip(path, path[1:]) if a != b]
+        out += [CopperItem(kind="via", net=self.net, layers=layers, start=v, end=v,
+                           width=rule.via_diameter, clearance=rule.clearance) for v in self.vias]
+        return out
+
+    @property
+    def length(self) -> float:
+        return math.fsum(math.hypot(b[0] - a[0], b[1] - a[1])
+                         for _, path in self.legs for a, b in zip(path, path[1:]))
+
+
+@dataclass
+class Plan:
+    wires: dict[int, Wire]  # by connection index
+    open: dict[int, str]  # connection index -> cause (CAUSES)
+    stats: dict = field(default_factory=dict)
+
+
+def spanning_connections(pads: list[tuple[str, End, int]]) -> list[Connection]:
+    """Per net, a minimum spanning tree over its pad clusters: `pads` are (net, end, cluster);
+    pads of one cluster are joined already. Edges by the shortest pad-to-pad distance between
+    two clusters (ties by coordinates), shortest first over the whole board."""
+    by_net: dict[str, list[tuple[End, int]]] = {}
+    for net, end, cluster in pads:
+        by_net.setdefault(net, []).append((end, cluster))
+    out: list[Connection] = []
+    for net in sorted(by_net):
+        out += _net_tree(net, by_net[net])
+    return sorted(out, key=lambda c: (c.length, c.net, c.a.at, c.b.at))
+
+
+def _net_tree(net: str, pads: list[tuple[End, int]]) -> list[Connection]:
+    clusters = sorted({c for _, c in pads})
+    if len(clusters) < 2:
+        return []
+    best: dict[tuple[int, int], tuple[float, End, End]] = {}
+    for i, (p, cp) in enumerate(pads):
+        for q, cq in pads[i + 1:]:
+            if cp == cq:
+                continue
+            key = (min(cp, cq), max(cp, cq))
+            d = math.hypot(p.x - q.x, p.y - q.y)
+            ends = (p, q) if (p.x, p.y) <= (q.x, q.y) else (q, p)
+            if key not in best or (d, ends[0].at, ends[1].at) < (best[key][0], best[key][1].at,
+                                                                  best[key][2].at):
+                best[key] = (d, *ends)
+    parent = {c: c for c in clusters}
+
+    def root(c: int) -> int:
+        while parent[c] != c:
+            parent[c] = parent[parent[c]]
+            c = parent[c]
+        return c
+
+    out = []
+    for key, (_, a, b) in sorted(best.items(), key=lambda kv: (kv[1][0], kv[0])):
+        ra, rb = root(key[0]), root(key[1])
+        if ra != rb:
+            parent[ra] = rb
+            out.append(Connection(net, a, b))
+    return out
+
+
+class Negotiator:
+    """Plans `connections` on `board` (see the module doc)."""
+
+    def __init__(self, board: BoardGeometry, layers: tuple[str, ...],
+                 rules: dict[str, NetRule], connections: list[Connection],
+                 budget_routes: int = BUDGET_ROUTES, max_rips: int = MAX_RIPS,
+                 router_nodes: int | None = None, router_checks: int | None = None):
+        budgets = {k: v for k, v in (("budget_nodes", router_nodes),
+                                     ("budget_checks", router_checks)) if v is not None}
+        self.base, self.layers, self.rules = board, tuple(layers), rules
+        self.connections = list(connections)
+        self.budget, self.max_rips = budget_routes, max_rips
+        self.free = WalkaroundRouter(board, **budgets)  # the board without planned copper
+        self.router = self.free.with_board(board)
+        self.wires: dict[int, Wire] = {}
+        self.items: dict[int, list[CopperItem]] = {}
+        self.rips = [0] * len(self.connections)
+        self.calls = 0
+        self._stale = False
+
+    # --- the loop ---
+
+    def run(self) -> Plan:
+        queue = deque(range(len(self.connections)))
+        failed: dict[int, str] = {}
+        best: tuple | None = None
+        while queue:
+            index = queue.popleft()
+            if index in self.wires:
+                continue
+            cause = self._place(index, queue)
+            if cause:
+                failed[index] = cause
+            else:
+                failed.pop(index, None)
+            best = self._keep_best(best, failed)
+        for index in [i for i in failed if i not in self.wires]:  # copper moved since
+            if self.calls < self.budget and self._route_here(index):
+                failed.pop(index)
+                best = self._keep_best(best, failed)
+        assert best is not None or not self.connections
+        wires, open_ = (best[2], best[3]) if best else ({}, {})
+        return Plan(dict(wires), dict(open_), {"route_calls": self.calls,
+                                               "rips": sum(self.rips),
+                                               "connections": len(self.connections)})
+
+    def _keep_best(self, best, failed):
+        """The best state so far: fewest open connections, then least wire; a later state as
+        good replaces an earlier one (it knows more causes). A connection open because it was
+        ripped up and not yet placed again counts as congestion."""
+        open_ = {i: failed.get(i, "congestion" if self.rips[i] else "budget")
+                 for i in range(len(self.connections)) if i not in self.wires}
+        key = (len(open_), math.fsum(w.length for w in self.wires.values()))
+        if best is None or key <= best[:2]:
+            return (*key, dict(self.wires), open_)
+        return best
+
+    def _place(self, index: int, queue: deque) -> str:
+        """Routes connection `index` (ripping others up if that is the way); '' or a cause."""
+        if self.calls >= self.budget:
+            return "budget"
+        if self._route_here(index):
+            return ""
+        wire = self._way(self.free, index)
+        if wire is None:
+            return "budget" if self.calls >= self.budget else "boxed_in"
+        blockers = self._blockers(index, wire)
+        if any(self.rips[b] >= self.max_rips for b in blockers):
+            return "congestion"
+        for b in blockers:
+            self._drop(b)
+            self.rips[b] += 1
+        self._add(index, wire)
+        queue.extendleft(sorted(blockers, key=lambda b: (-self.rips[b], b), reverse=True))
+        return ""
+
+    def _route_here(self, index: int) -> bool:
+        wire = self._way(self._router(), index)
+        if wire is not None:
+            self._add(index, wire)
+        return wire is not None
+
+    # --- the board's state ---
+
+    def _router(self) -> WalkaroundRouter:
+        if self._stale:
+            copper = self.base.copper + tuple(i for items in self.items.values() for i in items)
+            self.router.update(replace(self.base, copper=copper))
+            self._stale = False
+        return self.router
+
+    def _add(self, index: int, wire: Wire) -> None:
+        self.wires[index] = wire
+        self.items[index] = wire.items(self.rules[wire.net], self.layers)
+        self._stale = True
+
+    def _drop(self, index: int) -> None:
+        self.wires.pop(index, None)
+        self.items.pop(index, None)
+        self._stale = True
+
+    def _blockers(self, index: int, wire: Wire) -> list[int]:
+        """Planned connections of other nets whose copper is too close to `wire`'s."""
+        net, rule = wire.net, self.rules[wire.net]
+        mine = wire.items(rule, self.layers)
+        shapes = [(i, *copper_core(i)) for i in mine]
+        out = []
+        for other, items in sorted(self.items.items()):
+            if self.connections[other].net == net:
+                continue
+            if any(_too_close(a, ca, ra, b) for a, ca, ra in shapes for b in items):
+                out.append(other)
+        return out
+
+    # --- ways ---
+
+    def _way(self, router: WalkaroundRouter, index: int) -> Wire | None:
+        c = self.connections[index]
+        rule = self.rules[c.net]
+        for layer in [lay for lay in self.layers if lay in c.a.layers and lay in c.b.layers]:
+            path = self._leg(router, c.net, layer, c.a.at, c.b.at, rule)
+            if path:
+                return Wire(c.net, ((layer, path),))
+        for la in [lay for lay in self.layers if lay in c.a.layers]:
+            for lb in [lay for lay in self.layers if lay in c.b.layers and lay != la]:
+                wire = self._one_via(router, c, la, lb, rule)
+                if wire:
+                    return wire
+        for layer in [lay for lay in self.layers if lay in c.a.layers and lay in c.b.layers]:
+            wire = self._two_vias(router, c, layer, rule)
+            if wire:
+                return wire
+        return None
+
+    def _leg(self, router, net, layer, a: Point, b: Point, rule: NetRule):
+        if a == b:
+            return (a,)
+        if self.calls >= self.budget:
+            return None
+        self.calls += 1
+        result = router.route(RouteRequest(net=net, layer=layer, start=a, goal=b,
+                                           width=rule.width, clearance=rule.clearance))
+        return None if result.path is None else tuple((int(x), int(y)) for x, y in result.path)
+
+    def _one_via(self, router, c: Connection, la: str, lb: str, rule: NetRule) -> Wire | None:
+        for v in self._spots(router, c, rule)[:VIA_TRIES]:
+            first = self._leg(router, c.net, la, c.a.at, v, rule)
+            if first is None:
+                continue
+            second = self._leg(router, c.net, lb, v, c.b.at, rule)
+            if second is not None:
+                return Wire(c.net, ((la, first), (lb, second)), (v,))
+        return None
+
+    def _two_vias(self, router, c: Connection, layer: str, rule: NetRule) -> Wire | None:
+        others = [lay for lay in self.layers if lay != layer]
+        if not others:
+            return None
+        near_a = self._spots(router, c, rule, c.a)[:VIA_PAIR_TRIES]
+        near_b = self._spots(router, c, rule, c.b)[:VIA_PAIR_TRIES]
+        for va in near_a:
+            first = self._leg(router, c.net, layer, c.a.at, va, rule)
+            if first is None:
+                continue
+            for vb in near_b:
+                if vb == va:
+                    continue
+                for middle_layer in others:
+                    middle = self._leg(router, c.net, middle_layer, va, vb, rule)
+                    if middle is None:
+                        continue
+                    last = self._leg(router, c.net, layer, vb, c.b.at, rule)
+                    if last is not None:
+                        return Wire(c.net, ((layer, first), (middle_layer, middle),
+                                            (layer, last)), (va, vb))
+        return None
+
+    def _spots(self, router, c: Connection, rule: NetRule, near: End | None = None) -> list:
+        """Via spots that fit: rings around the ends (or `near` only) and points along the
+        straight line, nearest the line's midpoint first (`near`: nearest that end)."""
+        ends = [near] if near else [c.a, c.b]
+        spots: set[Point] = set()
+        for end in ends:
+            unit = end.reach + rule.via_diameter / 2 + rule.clearance
+            for step in RING_STEPS:
+                ring = np.rint(np.array(end.at) + HEADINGS * unit * step).astype(np.int64)
+                spots |= {(int(x), int(y)) for x, y in ring}
+        if near is None:
+            a, b = np.array(c.a.at, dtype=float), np.array(c.b.at, dtype=float)
+            spots |= {(int(round(x)), int(round(y))) for x, y in
+                      (a + t * (b - a) for t in (0.25, 0.5, 0.75))}
+        ordered = sorted(spots)
+        fits = router.vias_fit(c.net, ordered, rule.via_diameter, rule.clearance, self.layers)
+        target = near.at if near else ((c.a.x + c.b.x) / 2, (c.a.y + c.b.y) / 2)
+        chosen = [p for p, ok in zip(ordered, fits) if ok]
+        return sorted(chosen, key=lambda p: ((p[0] - target[0]) ** 2 + (p[1] - target[1]) ** 2,
+                                             p))
+
+
+def _too_close(a: CopperItem, core_a, radius_a: float, b: CopperItem) -> bool:
+    if not set(a.layers) & set(b.layers):
+        return False
+    core_b, radius_b = copper_core(b)
+    need = radius_a + radius_b + max(a.clearance, b.clearance) - TOLERANCE
+    return bool(shapely.distance(core_a, core_b) < need)

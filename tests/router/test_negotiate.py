@@ -1,0 +1,119 @@
+"""The negotiated planner on hand-made plain geometry: spanning trees, rip-up and reroute, the
+plan's legality (checked against exact shapes, independently of the router), counted work."""
+from __future__ import annotations
+
+import itertools
+
+import shapely
+
+from pcbdata.router.geometry import BoardGeometry, CopperItem, copper_core
+from pcbdata.router.negotiate import (
+    Connection,
+    End,
+    Negotiator,
+    NetRule,
+    spanning_connections,
+)
+
+MM = 1_000_000
+LAYERS = ("F.Cu",)
+
+
+def mm(x: float) -> int:
+    return round(x * MM)
+
+
+def square(x: float, y: float, half: float) -> tuple:
+    return ((mm(x - half), mm(y - half)), (mm(x + half), mm(y - half)),
+            (mm(x + half), mm(y + half)), (mm(x - half), mm(y + half)))
+
+
+def pad(net: str, x: float, y: float) -> CopperItem:
+    return CopperItem(kind="pad", net=net, layers=LAYERS, polygon=square(x, y, 0.15),
+                      clearance=mm(0.2))
+
+
+def wall(y0: float, y1: float) -> CopperItem:
+    """No-net copper across x 14.5-15.5 from y0 to y1."""
+    return CopperItem(kind="zone", net="WALL", layers=LAYERS, clearance=mm(0.2), polygon=(
+        (mm(14.5), mm(y0)), (mm(15.5), mm(y0)), (mm(15.5), mm(y1)), (mm(14.5), mm(y1))))
+
+
+def gates_board() -> tuple[BoardGeometry, list[Connection], dict[str, NetRule]]:
+    """A wall splits the board; gate 1 (0.95 mm) passes one wide track, gate 2 (0.7 mm) only a
+    narrow one. A (narrow, shorter) and B (wide) both cross: A first takes gate 1, so B can
+    only be routed by ripping A up and sending A through gate 2."""
+    outline = ((((0, 0), (mm(30), 0), (mm(30), mm(30)), (0, mm(30)))),)
+    copper = (wall(0, 14.525), wall(15.475, 26.65), wall(27.35, 30),
+              pad("A", 12, 13), pad("A", 18, 17), pad("B", 5, 15), pad("B", 25, 15))
+    board = BoardGeometry(outline=outline, copper=copper, edge_clearance=mm(0.2))
+    ends = {name: End(mm(x), mm(y), LAYERS, mm(0.15)) for name, x, y in
+            (("a1", 12, 13), ("a2", 18, 17), ("b1", 5, 15), ("b2", 25, 15))}
+    connections = spanning_connections([("A", ends["a1"], 0), ("A", ends["a2"], 1),
+                                        ("B", ends["b1"], 2), ("B", ends["b2"], 3)])
+    rules = {"A": NetRule(mm(0.2), mm(0.2), mm(0.6), mm(0.3)),
+             "B": NetRule(mm(0.5), mm(0.2), mm(0.6), mm(0.3))}
+    return board, connections, rules
+
+
+def assert_legal(board: BoardGeometry, items: list[CopperItem]) -> None:
+    """Every planned item keeps its clearance to every other net's copper (exact shapes) and
+    lies inside the outline by the edge clearance."""
+    region = shapely.Polygon(board.outline[0])
+    everything = list(board.copper) + items
+    for a in items:
+        core_a, ra = copper_core(a)
+        inset = region.buffer(-(ra + board.edge_clearance) + 1)
+        assert inset.covers(core_a), f"{a} too close to the edge"
+        for b in everything:
+            if b.net == a.net or not set(a.layers) & set(b.layers):
+                continue
+            core_b, rb = copper_core(b)
+            gap = shapely.distance(core_a, core_b) - ra - rb
+            assert gap >= max(a.clearance, b.clearance) - 1, (a, b, gap)
+
+
+def test_spanning_connections_join_clusters_shortest_first():
+    e = [End(mm(x), 0, LAYERS) for x in (0, 1, 3, 10)]
+    conns = spanning_connections([("N", e[0], 0), ("N", e[1], 0), ("N", e[2], 1),
+                                  ("N", e[3], 2), ("M", e[0], 5)])
+    # clusters {0,1}, {3}, {10}: two edges, 1-3 (2 mm) then 3-10 (7 mm); M has one pad
+    assert [(c.net, c.a.x, c.b.x) for c in conns] == [("N", mm(1), mm(3)), ("N", mm(3), mm(10))]
+
+
+def test_a_rip_up_frees_the_last_connection():
+    board, connections, rules = gates_board()
+    assert [c.net for c in connections] == ["A", "B"]  # A is the shorter: routed first
+    without = Negotiator(board, LAYERS, rules, connections, max_rips=0).run()
+    assert sorted(without.wires) == [0] and without.open == {1: "congestion"}
+    plan = Negotiator(board, LAYERS, rules, connections).run()
+    assert sorted(plan.wires) == [0, 1] and plan.open == {}
+    assert plan.stats["rips"] == 1
+    a_path = plan.wires[0].legs[0][1]
+    assert max(y for _, y in a_path) > mm(26)  # A went round through gate 2
+    items = [i for w in plan.wires.values() for i in w.items(rules[w.net], LAYERS)]
+    assert_legal(board, items)
+
+
+def test_plans_are_deterministic_and_the_budget_counts_route_calls():
+    board, connections, rules = gates_board()
+    one = Negotiator(board, LAYERS, rules, connections).run()
+    two = Negotiator(board, LAYERS, rules, connections).run()
+    assert one.wires == two.wires and one.stats == two.stats
+    short = Negotiator(board, LAYERS, rules, connections, budget_routes=1).run()
+    assert short.stats["route_calls"] == 1
+    assert set(short.open.values()) <= {"budget"} and len(short.wires) == 1
+
+
+def test_boxed_in_end_is_named():
+    board, _, rules = gates_board()
+    walls = tuple(CopperItem(kind="zone", net="WALL", layers=LAYERS, clearance=mm(0.2),
+                             polygon=square(*xy, 0.4))
+                  for xy in itertools.product((4.0, 6.0), (14.0, 16.0)))
+    ring = tuple(CopperItem(kind="zone", net="WALL", layers=LAYERS, clearance=mm(0.2),
+                            polygon=square(x, y, 0.4))
+                 for x, y in ((5.0, 14.0), (5.0, 16.0), (4.0, 15.0), (6.0, 15.0)))
+    boxed = BoardGeometry(board.outline, board.copper + walls + ring, board.edge_clearance)
+    b = [End(mm(5), mm(15), LAYERS, mm(0.15)), End(mm(25), mm(15), LAYERS, mm(0.15))]
+    plan = Negotiator(boxed, LAYERS, rules, [Connection("B", *b)]).run()
+    assert plan.open == {0: "boxed_in"}
