@@ -45,6 +45,12 @@ VIA_TRIES = 6
 VIA_PAIR_TRIES = 3
 #: Ring distances of via spots around an end, in units of (pad radius + via radius + clearance).
 RING_STEPS = (1.0, 1.5, 2.2)
+#: Spots along a guide path for a via (every GUIDE_STEP nm along octilinear steps), at most
+#: GUIDE_TRIES of them tried.
+GUIDE_STEP = 250_000
+GUIDE_TRIES = 6
+#: Rounds after the first, each with the connections left open placed first.
+RESTARTS = 2
 CAUSES = ("boxed_in", "congestion", "budget")
 
 
@@ -163,24 +169,52 @@ class Negotiator:
     def __init__(self, board: BoardGeometry, layers: tuple[str, ...],
                  rules: dict[str, NetRule], connections: list[Connection],
                  budget_routes: int = BUDGET_ROUTES, max_rips: int = MAX_RIPS,
-                 router_nodes: int | None = None, router_checks: int | None = None):
+                 restarts: int = RESTARTS, router_nodes: int | None = None,
+                 router_checks: int | None = None):
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
         self.connections = list(connections)
-        self.budget, self.max_rips = budget_routes, max_rips
-        self.free = WalkaroundRouter(board, **budgets)  # the board without planned copper
-        self.router = self.free.with_board(board)
+        self.budget, self.max_rips, self.restarts = budget_routes, max_rips, restarts
+        self.bare = WalkaroundRouter(board, **budgets)  # the board without planned copper
+        self.router = self.bare.with_board(board)  # with all of it
+        self.fixed_router = self.bare.with_board(board)  # with what may not be ripped up
+        self.calls = 0
+        self._reset()
+
+    def _reset(self) -> None:
         self.wires: dict[int, Wire] = {}
         self.items: dict[int, list[CopperItem]] = {}
         self.rips = [0] * len(self.connections)
-        self.calls = 0
-        self._stale = False
+        self._stale = self._fixed_stale = True
 
     # --- the loop ---
 
     def run(self) -> Plan:
-        queue = deque(range(len(self.connections)))
+        """Rounds of the negotiation: the first in the connections' order, each later one
+        with the connections the best round left open first (their history), from a clean
+        board; the best round is the plan."""
+        order = list(range(len(self.connections)))
+        best: Plan | None = None
+        rounds = 0
+        for _ in range(1 + self.restarts):
+            plan = self._round(order)
+            rounds += 1
+            if best is None or _rank(plan) < _rank(best):
+                best = plan
+            if not best.open or self.calls >= self.budget:
+                break
+            first = sorted(best.open, key=lambda i: (self.connections[i].length, i))
+            order = first + [i for i in order if i not in best.open]
+        assert best is not None
+        best.open = {i: self._cause(i, c) for i, c in sorted(best.open.items())}
+        best.stats = {**best.stats, "route_calls": self.calls, "rounds": rounds,
+                      "connections": len(self.connections)}
+        return best
+
+    def _round(self, order: list[int]) -> Plan:
+        self._reset()
+        queue = deque(order)
         failed: dict[int, str] = {}
         best: tuple | None = None
         while queue:
@@ -197,11 +231,15 @@ class Negotiator:
             if self.calls < self.budget and self._route_here(index):
                 failed.pop(index)
                 best = self._keep_best(best, failed)
-        assert best is not None or not self.connections
         wires, open_ = (best[2], best[3]) if best else ({}, {})
-        return Plan(dict(wires), dict(open_), {"route_calls": self.calls,
-                                               "rips": sum(self.rips),
-                                               "connections": len(self.connections)})
+        return Plan(dict(wires), dict(open_), {"rips": sum(self.rips)})
+
+    def _cause(self, index: int, cause: str) -> str:
+        """The cause of an open connection: `boxed_in` where even the board without planned
+        copper has no way for it (a repeated request costs nothing: the router remembers)."""
+        if cause == "budget" or self.calls >= self.budget:
+            return cause
+        return "boxed_in" if self._way(self.bare, index) is None else cause
 
     def _keep_best(self, best, failed):
         """The best state so far: fewest open connections, then least wire; a later state as
@@ -215,20 +253,21 @@ class Negotiator:
         return best
 
     def _place(self, index: int, queue: deque) -> str:
-        """Routes connection `index` (ripping others up if that is the way); '' or a cause."""
+        """Routes connection `index` (ripping others up if that is the way); '' or a cause.
+        The rip-up search sees the board without the planned copper that may still be ripped
+        up (connections ripped `max_rips` times stay as obstacles)."""
         if self.calls >= self.budget:
             return "budget"
         if self._route_here(index):
             return ""
-        wire = self._way(self.free, index)
+        wire = self._way(self._fixed(), index)
         if wire is None:
-            return "budget" if self.calls >= self.budget else "boxed_in"
+            return "budget" if self.calls >= self.budget else "congestion"
         blockers = self._blockers(index, wire)
-        if any(self.rips[b] >= self.max_rips for b in blockers):
-            return "congestion"
         for b in blockers:
             self._drop(b)
             self.rips[b] += 1
+            self._fixed_stale |= self.rips[b] >= self.max_rips
         self._add(index, wire)
         queue.extendleft(sorted(blockers, key=lambda b: (-self.rips[b], b), reverse=True))
         return ""
@@ -248,10 +287,20 @@ class Negotiator:
             self._stale = False
         return self.router
 
+    def _fixed(self) -> WalkaroundRouter:
+        """The router over the board and the planned copper that may not be ripped up."""
+        if self._fixed_stale:
+            fixed = tuple(i for k, items in self.items.items() if self.rips[k] >= self.max_rips
+                          for i in items)
+            self.fixed_router.update(replace(self.base, copper=self.base.copper + fixed))
+            self._fixed_stale = False
+        return self.fixed_router
+
     def _add(self, index: int, wire: Wire) -> None:
         self.wires[index] = wire
         self.items[index] = wire.items(self.rules[wire.net], self.layers)
         self._stale = True
+        self._fixed_stale |= self.rips[index] >= self.max_rips
 
     def _drop(self, index: int) -> None:
         self.wires.pop(index, None)
@@ -265,7 +314,7 @@ class Negotiator:
         shapes = [(i, *copper_core(i)) for i in mine]
         out = []
         for other, items in sorted(self.items.items()):
-            if self.connections[other].net == net:
+            if self.connections[other].net == net or self.rips[other] >= self.max_rips:
                 continue
             if any(_too_close(a, ca, ra, b) for a, ca, ra in shapes for b in items):
                 out.append(other)
@@ -302,6 +351,9 @@ class Negotiator:
         return None if result.path is None else tuple((int(x), int(y)) for x, y in result.path)
 
     def _one_via(self, router, c: Connection, la: str, lb: str, rule: NetRule) -> Wire | None:
+        """a on `la`, a via, b on `lb`: vias at spots around the ends first, then along a guide
+        path (a to b's place on `la`, via near b; a's place to b on `lb`, via near a), whose
+        part up to (or from) the via is kept as one leg."""
         for v in self._spots(router, c, rule)[:VIA_TRIES]:
             first = self._leg(router, c.net, la, c.a.at, v, rule)
             if first is None:
@@ -309,7 +361,48 @@ class Negotiator:
             second = self._leg(router, c.net, lb, v, c.b.at, rule)
             if second is not None:
                 return Wire(c.net, ((la, first), (lb, second)), (v,))
+        guide = self._leg(router, c.net, la, c.a.at, c.b.at, rule)
+        for head, v in self._guide_spots(router, c.net, guide, rule, from_end=True):
+            second = self._leg(router, c.net, lb, v, c.b.at, rule)
+            if second is not None:
+                return Wire(c.net, ((la, head), (lb, second)), (v,))
+        guide = self._leg(router, c.net, lb, c.a.at, c.b.at, rule)
+        for tail, v in self._guide_spots(router, c.net, guide, rule, from_end=False):
+            first = self._leg(router, c.net, la, c.a.at, v, rule)
+            if first is not None:
+                return Wire(c.net, ((la, first), (lb, tail)), (v,))
         return None
+
+    def _guide_spots(self, router, net: str, guide, rule: NetRule, from_end: bool) -> list:
+        """(part of `guide` up to the spot, or from it; the spot) for spots on the guide path
+        every GUIDE_STEP where a via fits, nearest the guide's end first (`from_end`) or its
+        start; at most GUIDE_TRIES."""
+        if not guide or len(guide) < 2:
+            return []
+        cuts = []  # (distance from the start, segment index, point)
+        run = 0.0
+        for k, (a, b) in enumerate(zip(guide, guide[1:])):
+            dx, dy = b[0] - a[0], b[1] - a[1]
+            steps = max(abs(dx), abs(dy))
+            if steps == 0:
+                continue
+            unit = (dx // steps if dx else 0, dy // steps if dy else 0)
+            length = math.hypot(dx, dy)
+            for n in range(GUIDE_STEP, steps, GUIDE_STEP):
+                cuts.append((run + length * n / steps, k, (a[0] + unit[0] * n,
+                                                           a[1] + unit[1] * n)))
+            run += length
+        if not cuts:
+            return []
+        fits = router.vias_fit(net, [p for _, _, p in cuts], rule.via_diameter, rule.clearance,
+                               self.layers)
+        chosen = [cut for cut, ok in zip(cuts, fits) if ok]
+        chosen.sort(key=lambda cut: -cut[0] if from_end else cut[0])
+        out = []
+        for _, k, point in chosen[:GUIDE_TRIES]:
+            part = guide[:k + 1] + (point,) if from_end else (point,) + guide[k + 1:]
+            out.append((part, point))
+        return out
 
     def _two_vias(self, router, c: Connection, layer: str, rule: NetRule) -> Wire | None:
         others = [lay for lay in self.layers if lay != layer]
@@ -354,6 +447,10 @@ class Negotiator:
         chosen = [p for p, ok in zip(ordered, fits) if ok]
         return sorted(chosen, key=lambda p: ((p[0] - target[0]) ** 2 + (p[1] - target[1]) ** 2,
                                              p))
+
+
+def _rank(plan: Plan) -> tuple:
+    return (len(plan.open), math.fsum(w.length for w in plan.wires.values()))
 
 
 def _too_close(a: CopperItem, core_a, radius_a: float, b: CopperItem) -> bool:
