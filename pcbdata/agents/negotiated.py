@@ -31,6 +31,7 @@ from pcbdata.router.negotiate import (
     NetRule,
     Plan,
     Wire,
+    seeded_order,
     spanning_connections,
 )
 
@@ -39,8 +40,10 @@ def _mm(point) -> tuple[float, float]:
     return point[0] / 1e6, point[1] / 1e6
 
 
-def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES) -> tuple[Plan, list]:
-    """The negotiated plan of a board's open connections and those connections."""
+def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES,
+               seed: int = 0) -> tuple[Plan, list]:
+    """The negotiated plan of a board's open connections and those connections (seed 0:
+    shortest first; another seed: another order, `negotiate.seeded_order`)."""
     static = view.static
     routed = {n.name for n in static.nets if n.name}
     pads = []
@@ -50,7 +53,7 @@ def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES) -> tuple[Pla
         reach = max(pad.size) // 2
         pads.append((pad.net, End(pad.x, pad.y, tuple(static.layers[k] for k in pad.layers),
                                   reach), view.pad_cluster[i]))
-    connections = spanning_connections(pads)
+    connections = seeded_order(spanning_connections(pads), seed)
     rules = {n.name: NetRule(n.track_width, n.clearance, n.via_diameter, n.via_drill)
              for n in static.nets}
     layers = static.layers if static.grid_pitch is None else static.layers[:1]
@@ -120,6 +123,6 @@ class NegotiatedAgent:
         if self._view is None:
             raise RuntimeError("NegotiatedAgent needs the environment: call attach(env) first")
         view = self._view()
-        self.plan, _ = plan_board(view, self.budget_routes)
+        self.plan, _ = plan_board(view, self.budget_routes, self.seed)
         self._queue = [wire_actions(view, w) for _, w in sorted(self.plan.wires.items())]
         self._planned = True

@@ -120,3 +120,15 @@ def test_boxed_in_end_is_named():
     b = [End(mm(5), mm(15), LAYERS, mm(0.15)), End(mm(25), mm(15), LAYERS, mm(0.15))]
     plan = Negotiator(boxed, LAYERS, rules, [Connection("B", *b)]).run()
     assert plan.open == {0: "boxed_in"}
+
+
+def test_seeded_orders_differ_and_repeat():
+    from pcbdata.router.negotiate import seeded_order
+
+    ends = [End(mm(x), mm(y), LAYERS) for x, y in ((0, 0), (1, 0), (0, 5), (2, 5), (9, 9),
+                                                  (9, 10.5), (4, 4), (6, 4.5))]
+    conns = [Connection(f"N{i}", ends[2 * i], ends[2 * i + 1]) for i in range(4)]
+    assert seeded_order(conns, 0) == conns
+    orders = {tuple(c.net for c in seeded_order(conns, s)) for s in range(1, 30)}
+    assert len(orders) > 1
+    assert seeded_order(conns, 7) == seeded_order(list(reversed(conns)), 7)
