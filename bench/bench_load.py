@@ -1,4 +1,4 @@
-"""Benchmark of the published form of a board set (issue 4).
+"""Benchmark of the published form of a board set.
 
     .venv/bin/python bench/bench_load.py [--root DIR] [--config d2] [--json OUT]
 

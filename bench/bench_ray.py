@@ -1,4 +1,4 @@
-"""Benchmark: the Ray executor on a local Ray cluster versus the local executor (issue 13).
+"""Benchmark: the Ray executor on a local Ray cluster versus the local executor.
 
 Same machine, same work, one run each, in this order:
 

@@ -1,4 +1,4 @@
-"""Benchmark: RLlib PPO (`examples/rllib_ppo.py`) for a few iterations on a Ray cluster (issue 26).
+"""Benchmark: RLlib PPO (`examples/rllib_ppo.py`) for a few iterations on a Ray cluster.
 
 Starts a local Ray cluster with `--cpus` CPUs (or joins `--address`), builds the example's PPO
 (`--env-runners` EnvRunners, each with one environment and its KiCad worker; the learner in

@@ -1,4 +1,4 @@
-"""Benchmarks for the synthetic sets (issue 2). Run: .venv/bin/python bench/bench_synthetic.py
+"""Benchmarks for the synthetic sets. Run: .venv/bin/python bench/bench_synthetic.py
 
 1. Write the full default D2 (10 256 boards) without KiCad checks (target <= 30 s).
 2. Write D1 at G=500 (10 256 boards) without KiCad checks (target <= 30 s).

@@ -1,4 +1,4 @@
-"""Regenerates the README's and docs/evaluator.md's baseline tables end to end (issue 9).
+"""Regenerates the README's and docs/evaluator.md's baseline tables end to end.
 
 Builds what it needs into WORK (default /work/tables-work; never into the repository):
 the D2 test split (`pcbdata build d2 --splits test`) and D3 from the PCBench snapshot
@@ -8,7 +8,7 @@ rollouts; kicad-tools @1 on a stated sample); scores with `pcbdata eval` at k=1 
 count; CP+, DRV+: strict count). Every step resumes: builds skip what is on disk, `route` skips
 rollouts with a JSON, `eval` reuses its `scores.jsonl`.
 
-`--prefix` also routes @1 with the freeroute round trip as it was before the issue-9 fixes
+`--prefix` also routes @1 with the freeroute round trip without fixes 3 and 4 of docs/evaluator.md
 (no via planning, no boundary inset; rollout 0's engine options are unchanged), to compare.
 
     nice -n 5 python bench/readme_tables.py --workers 2 [--only d2,d3-a,d3-b] [--prefix]
