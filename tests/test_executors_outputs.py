@@ -1,4 +1,4 @@
-"""Same bytes on Ray as locally (issue 13): a D2 build (boards, manifest, parquet shards,
+"""Same bytes on Ray as locally: a D2 build (boards, manifest, parquet shards,
 card) and the eval report of rollouts on it, run once with each executor."""
 from __future__ import annotations
 

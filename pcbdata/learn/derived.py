@@ -1,5 +1,5 @@
 """Derived inputs of the set policy: relations between rows that a set encoder cannot see from
-one row alone, and the agent's memory of its own episode (docs/learn.md, "Inputs").
+one row alone, and the agent's memory of its own episode (docs/learn.md, "The network").
 
 A DeepSets encoder reads each row with a pooled summary of all rows, so it cannot tell which
 candidate sits at the end of an open ratsnest edge of the head's net, or that its last `finish`

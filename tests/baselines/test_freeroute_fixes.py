@@ -1,4 +1,4 @@
-"""The three freeroute defects that pcbdata's Specctra round trip works around (issue 9):
+"""The three freeroute defects that pcbdata's Specctra round trip works around:
 vias modelled as track-sized squares, crossing 45-degree segments of the `grid` engine, and
 tracks on the board edge. Each integration test routes a real board that failed before."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""freeroute's pad model (issue 25): it reads an oval pad (a Specctra `path`) as the box of
+"""freeroute's pad model: it reads an oval pad (a Specctra `path`) as the box of
 its end points without the width, and never turns a pad with its component or pin, so it ran
 tracks through oval through-hole pads and turned rectangles. `exact_pads` rewrites the DSN
 so that what freeroute reads holds every pad; the real-board test checks that against KiCad's

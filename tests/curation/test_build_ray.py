@@ -1,4 +1,4 @@
-"""D3 on Ray (issue 13): the fixture corpus built with the Ray executor gives the same files as
+"""D3 on Ray: the fixture corpus built with the Ray executor gives the same files as
 the local build (`tree` blanks the measured seconds of curation_report.csv, as between two
 local builds)."""
 from __future__ import annotations

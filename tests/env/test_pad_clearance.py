@@ -2,7 +2,7 @@
 KiCad's DRC holds other nets' tracks to, instead of the net class clearance. The router took
 every pad at its net's clearance, so on D3-C `0596_PoEPi-hardware__autosave-pizero-poe` (a
 transistor's pads at 0.2 mm, its nets at 0.15 mm) scripted-shove left 4 `clearance`
-violations (issue 25). Here: D2 boards whose NET1 pads are given a large override."""
+violations. Here: D2 boards whose NET1 pads are given a large override."""
 from __future__ import annotations
 
 import re

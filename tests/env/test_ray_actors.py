@@ -1,4 +1,4 @@
-"""Environment workers as Ray actors (`pcbdata.agents.ray_actors`, issue 13) on the 2-CPU local
+"""Environment workers as Ray actors (`pcbdata.agents.ray_actors`) on the 2-CPU local
 Ray cluster: seeded episodes stepped on two actors give the observations, rewards and saved
 boards of the same episodes run locally; a killed actor is one clear error; no actor and no
 KiCad worker outlives its end."""

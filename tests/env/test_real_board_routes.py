@@ -1,5 +1,5 @@
 """Two real boards the scripted-shove agent used to leave one connection short of, built alone
-from the PCBench snapshot (issue 25), each now routed completely with a clean final DRC:
+from the PCBench snapshot, each now routed completely with a clean final DRC:
 
 - `MySRaspiGW_PA_LNA` (D3-A): a pad in a 1.27 mm row of surface pads whose connection needs
   the other side. No via fits on the pad, so the agent drops one a ring step beside it (or

@@ -1,4 +1,4 @@
-"""`pcbdata rollout --executor ray` (issue 13): the same files as the local executor, byte for
+"""`pcbdata rollout --executor ray`: the same files as the local executor, byte for
 byte but for the wall time `time_s`, on the 2-CPU local Ray cluster; a rollout whose Ray worker
 dies mid-episode is run again and loses nothing."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Every config a built set holds is an environment (issue 24): a custom D2 level and a D1
+"""Every config a built set holds is an environment: a custom D2 level and a D1
 placement, built by the build library as `pcbdata build` builds them, through `pcbdata
 rollout` + `pcbdata eval`, `pcbdata.env.make`, the set id `pcbdata/Route-v2` and `check_env`;
 the config's family and parameters come from the set's manifest, not from its name."""

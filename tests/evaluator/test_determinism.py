@@ -1,4 +1,4 @@
-"""Scores do not depend on the order in which KiCad's DRC threads report violations (issue 12):
+"""Scores do not depend on the order in which KiCad's DRC threads report violations:
 violations are put in a canonical order in the KiCad layer and the metrics sum exactly, so the
 same board gives byte-identical records and reports run to run."""
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Hostile copper the evaluator must not let through (issue 22, items 1-4).
+"""Hostile copper the evaluator must not let through.
 
 Each case is a small edit of a real routed board, scored by the real evaluator: D1 and D2 test
 board 0 routed by the freeroute baseline, and the reference board of a D3-A board (built from

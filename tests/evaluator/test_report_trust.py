@@ -1,4 +1,4 @@
-"""Reports that can be trusted (issue: scores nobody can game): the set a report scored is
+"""Reports that can be trusted: the set a report scored is
 named and checked, the score cache is never taken on faith, and the gaps that moved a set's
 figures without a word (missing times, boards without a scored rollout, huge files, odd file
 names, a REPORT folder inside the inputs) are closed. Real KiCad throughout."""

@@ -1,4 +1,4 @@
-"""Rules smuggled inside a submitted board are never obeyed (issue 14).
+"""Rules smuggled inside a submitted board are never obeyed.
 
 KiCad obeys a board file's legacy net classes, legacy setup keys and local overrides over the
 instance's project. The evaluator therefore checks the instance's own board with only the

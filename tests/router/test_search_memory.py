@@ -1,4 +1,4 @@
-"""The walkaround router's shortcuts (issue 25): the ray screen that skips exact tests of links
+"""The walkaround router's shortcuts: the ray screen that skips exact tests of links
 that cannot be clear, the answers remembered per layer state, and paths no worse than the
 router before them (revision 5a7faa8, recorded in data/d2_paths_5a7faa8.json)."""
 from __future__ import annotations

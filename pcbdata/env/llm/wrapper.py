@@ -1,4 +1,4 @@
-"""Tool-using language models on the routing environment (issue 11, LLM part).
+"""Tool-using language models on the routing environment.
 
 `LLMWrapper(env)`: a Gymnasium wrapper whose observation is the step's message text and whose
 action is the model's reply (text, or a tool-call structure: `pcbdata.env.llm.tools`). It
