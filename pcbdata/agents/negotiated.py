@@ -26,6 +26,7 @@ from pcbdata.env.types import (
 )
 from pcbdata.router.negotiate import (
     BUDGET_ROUTES,
+    CAUSES,
     End,
     Negotiator,
     NetRule,
@@ -40,10 +41,11 @@ def _mm(point) -> tuple[float, float]:
     return point[0] / 1e6, point[1] / 1e6
 
 
-def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES,
-               seed: int = 0) -> tuple[Plan, list]:
+def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES, seed: int = 0,
+               **options) -> tuple[Plan, list]:
     """The negotiated plan of a board's open connections and those connections (seed 0:
-    shortest first; another seed: another order, `negotiate.seeded_order`)."""
+    shortest first; another seed: another order, `negotiate.seeded_order`); `options` go to
+    `Negotiator` (max_rips, restarts, router budgets)."""
     static = view.static
     routed = {n.name for n in static.nets if n.name}
     pads = []
@@ -58,7 +60,7 @@ def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES,
              for n in static.nets}
     layers = static.layers if static.grid_pitch is None else static.layers[:1]
     negotiator = Negotiator(view.geometry, layers, rules, connections,  # type: ignore[arg-type]
-                            budget_routes=budget_routes)
+                            budget_routes=budget_routes, **options)
     return negotiator.run(), connections
 
 
@@ -96,16 +98,19 @@ class NegotiatedAgent:
         self._planned = False
         self.plan: Plan | None = None
         self.done = False
+        self.refused_wires = 0
 
     def attach(self, env) -> None:
         """The runner hands over the environment (its `board_view` only is read)."""
         self._view = env.board_view
         self._queue, self._current, self._planned, self.done = [], [], False, False
+        self.refused_wires = 0
 
     def act(self, obs, info) -> dict:
         if not self._planned:
             self._make_plan()
         if self._current and self._refused(info):
+            self.refused_wires += 1
             self._current = [{"type": NET_END}] if info.get("phase") != "no_net" else []
         if not self._current:
             if not self._queue:
@@ -113,6 +118,14 @@ class NegotiatedAgent:
                 return {"type": NET_END} if info.get("phase") != "no_net" else {"type": 0}
             self._current = self._queue.pop(0)
         return self._current.pop(0)
+
+    def report(self) -> dict:
+        """The plan's counts for the rollout's JSON: connections, the open ones by cause
+        (`negotiate.CAUSES`), route calls, rip-ups, rounds, and wires the environment refused."""
+        if self.plan is None:
+            return {}
+        causes = {c: sum(1 for v in self.plan.open.values() if v == c) for c in CAUSES}
+        return {**self.plan.stats, "open": causes, "refused_wires": self.refused_wires}
 
     @staticmethod
     def _refused(info) -> bool:

@@ -90,10 +90,14 @@ def run_episode(env, agent, board_id: str, seed: int) -> dict:
         obs, reward, terminated, truncated, info = env.step(act)
         total += reward
         steps += 1
-    return {"board_id": board_id, "rollout": seed, "time_s": time.perf_counter() - began,
-            "steps": steps, "reward": total, "terminated": terminated, "truncated": truncated,
-            "unconnected": info["unconnected"], "drv": info["drv"],
-            "engine_failure": info.get("engine_failure")}
+    record = {"board_id": board_id, "rollout": seed, "time_s": time.perf_counter() - began,
+              "steps": steps, "reward": total, "terminated": terminated,
+              "truncated": truncated, "unconnected": info["unconnected"], "drv": info["drv"],
+              "engine_failure": info.get("engine_failure")}
+    report = getattr(agent, "report", None)
+    if report is not None:  # what the agent says of its episode (plain data: counts, causes)
+        record["agent_report"] = report()
+    return record
 
 
 _ENV: dict[str, Any] = {}  # this worker's environment and the arguments it was made with

@@ -7,7 +7,7 @@ import pytest
 from tests.helpers import skip_without_snapshot
 
 #: A D3-B pick whose plan needs rip-ups (two connections ripped and placed again).
-RIPPED = "ottawa-badges-2016_ottawa-badge-tagger-2016"
+RIPPED = "ATtiny461Breakout_ATTiny461DevBoard"
 SMALL = "maytal_Maytal"
 
 
@@ -34,6 +34,19 @@ def _episode(d3_set, board_id: str, tmp_path, name: str):
         env.close()
 
 
+def _open_without_rip_ups(d3_set, board_id: str) -> int:
+    import pcbdata.env
+    from pcbdata.agents.negotiated import plan_board
+
+    env = pcbdata.env.make(d3_set, "d3-b", split="test", drc="terminal")
+    try:
+        env.reset(seed=0, options={"board_id": board_id})
+        plan, _ = plan_board(env.unwrapped.board_view(), max_rips=0, restarts=0)
+        return len(plan.open)
+    finally:
+        env.close()
+
+
 @pytest.mark.slow
 def test_rip_ups_complete_a_real_board_clean_and_deterministically(d3_set, tmp_path):
     board_id = _board_id(d3_set, RIPPED)
@@ -41,6 +54,7 @@ def test_rip_ups_complete_a_real_board_clean_and_deterministically(d3_set, tmp_p
     assert plan.stats["rips"] >= 1 and plan.open == {}
     assert (record["unconnected"], record["drv"], record["engine_failure"]) == (0, 0, None)
     again, _, second = _episode(d3_set, board_id, tmp_path, "two")
+    assert _open_without_rip_ups(d3_set, board_id) > 0  # the rip-ups made the difference
     assert first == second and again["steps"] == record["steps"]
     assert again["reward"] == record["reward"]
 
@@ -58,3 +72,6 @@ def test_negotiated_rollout_through_the_cli_scores_clean(d3_set, tmp_path):
                  str(runs), "--limit", "1"]) == 0
     record = json.loads((runs / board_id / "0.json").read_text())
     assert (record["agent"], record["unconnected"], record["drv"]) == ("negotiated", 0, 0)
+    report = record["agent_report"]  # the plan's counts, kept with the rollout
+    assert report["open"] == {"boxed_in": 0, "congestion": 0, "budget": 0}
+    assert report["connections"] > 0 and report["refused_wires"] == 0
