@@ -12,7 +12,8 @@ published rows of `bench/published.json` (SPEC section 7.5), nothing typed by ha
     python bench/baselines.py run SET --config d3-b --method scripted --rollouts 5 [--work DIR]
     python bench/baselines.py run SET --config d3-c --method freeroute --rollouts 1
     python bench/baselines.py run SET --config d3-c --method reference
-    python bench/baselines.py table > /tmp/table.md
+    python bench/baselines.py table [--write README.md]
+    python bench/baselines.py collect --work DIR   # results.json of every record, beside it
 """
 from __future__ import annotations
 
@@ -106,6 +107,26 @@ def run(args) -> Path:
     return out
 
 
+def collect(args) -> None:
+    """Each record's `results.json` (the schema `pcbdata eval` writes), beside the record as
+    `<config>__<method>.results.json`: the eval is run again on the record's runs (its cache
+    answers), so `pcbdata leaderboard bench/results/baselines/*.results.json` reads them all."""
+    for path in sorted(RECORDS.glob("*__*.json")):
+        if path.name.endswith(".results.json"):
+            continue
+        record = json.loads(path.read_text())
+        work = Path(args.work) / path.stem
+        eval_command = next(c for c in record["commands"] if c.startswith("pcbdata eval"))
+        pcbdata(*eval_command.split()[1:])
+        report = work / "report" / "results.json"
+        if not report.is_file():
+            print(f"{path.name}: no results.json in {report.parent}", file=sys.stderr)
+            continue
+        out = RECORDS / f"{path.stem}.results.json"
+        out.write_text(report.read_text())
+        print(f"wrote {out}", file=sys.stderr)
+
+
 def _cell(record: dict) -> str:
     f, t = record["figures"], record["time_s"]
     time = "-" if not t else f"{t['mean']:.2f} ({t['median']:.2f})"
@@ -115,7 +136,8 @@ def _cell(record: dict) -> str:
 def table() -> str:
     """The README's table: our rows (CP %, Pot., Rout., mean (median) s per episode), then the
     published rows as published (CP as a fraction, mean s)."""
-    records = [json.loads(p.read_text()) for p in sorted(RECORDS.glob("*.json"))]
+    records = [json.loads(p.read_text()) for p in sorted(RECORDS.glob("*.json"))
+               if not p.name.endswith(".results.json")]
     header = "| method | " + " | ".join(SPLITS.values()) + " |"
     lines = [header, "| --- " * (len(SPLITS) + 1) + "|"]
     for method, label in METHODS.items():
@@ -131,6 +153,21 @@ def table() -> str:
         cells = [_published_cell(row["cells"].get(config)) for config in SPLITS]
         lines.append(f"| {row['method']} (published) | " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
+
+
+BEGIN, END = "<!-- baselines table: begin -->", "<!-- baselines table: end -->"
+
+
+def readme_table(text: str) -> str:
+    """The table between the README's markers."""
+    return text.split(BEGIN, 1)[1].split(END, 1)[0].strip("\n") + "\n"
+
+
+def write_readme(path: Path) -> None:
+    text = path.read_text(encoding="utf-8")
+    head, rest = text.split(BEGIN, 1)
+    tail = rest.split(END, 1)[1]
+    path.write_text(f"{head}{BEGIN}\n{table()}{END}{tail}", encoding="utf-8")
 
 
 def _published_cell(cell: dict | None) -> str:
@@ -153,10 +190,18 @@ def main() -> int:
     r.add_argument("--eval-workers", type=int, default=8)
     r.add_argument("--work", default="/tmp/pcbdata-baselines",
                    help="where the runs and reports go (never the repository)")
-    sub.add_parser("table", help="print the README's table from the records")
+    t = sub.add_parser("table", help="print the README's table from the records")
+    t.add_argument("--write", type=Path, metavar="README",
+                   help="put it between the README's baselines markers instead")
+    c = sub.add_parser("collect", help="copy each record's results.json beside it")
+    c.add_argument("--work", default="/tmp/pcbdata-baselines")
     args = parser.parse_args()
     if args.verb == "run":
         run(args)
+    elif args.verb == "collect":
+        collect(args)
+    elif args.write:
+        write_readme(args.write)
     else:
         print(table(), end="")
     return 0

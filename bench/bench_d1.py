@@ -2,8 +2,9 @@
 
 Writes the first N test boards of each D1 grid from the generator (the same bytes `pcbdata build
 d1` writes), rolls the agent out k times per board with `pcbdata rollout`'s library call (2
-workers by default), scores them with `pcbdata eval`'s (`evaluate_set`, CP and Rout. of the best
-of k) and prints one row per grid: boards, CP, Rout., mean wall time per episode. The baseline
+workers by default), scores them with `pcbdata eval`'s (`evaluate_set`, CP, Pot. and Rout. of
+the best of k; Pot. also in the paper's D1 convention, `--convention d1-published`) and prints
+one row per grid: boards, CP, both Pot., Rout., mean wall time per episode. The baseline
 (`--baseline`, default the scripted agent) runs in the same call on the same boards. Also
 counted: boards with a net walled in by other pads (`D1Grid.walled_nets`), which no agent can
 complete.
@@ -56,6 +57,7 @@ def _walled_boards(config: str, limit: int) -> int:
 
 def _grid(root: Path, work: Path, config: str, agent: str, args) -> dict:
     from pcbdata.agents.rollout import run_rollouts
+    from pcbdata.evaluator.metrics import CONVENTIONS
     from pcbdata.evaluator.runs import evaluate_set
 
     name = agent.rsplit(":", 1)[-1]
@@ -68,19 +70,23 @@ def _grid(root: Path, work: Path, config: str, agent: str, args) -> dict:
     scored = evaluate_set(root, config, "test", report, runs=runs, k=args.k,
                           workers=args.workers, progress=False, limit=args.limit)
     s = scored["summary"]
+    published = evaluate_set(root, config, "test", work / f"{report.name}-d1-published",
+                             runs=runs, k=args.k, workers=args.workers, progress=False,
+                             limit=args.limit, weights=CONVENTIONS["d1-published"])["summary"]
     return {"config": config, "agent": name, "boards": args.limit,
             "walled_in": _walled_boards(config, args.limit) if config.startswith("d1-") else "-",
-            "cp": s["cp"],
+            "cp": s["cp"], "pot": s["pot"], "pot_d1_published": published["pot"],
             "rout": s["rout"], "episode_s": statistics.mean(times) if times else None,
             "rollouts_wall_s": wall}
 
 
 def _table(rows: list[dict], k: int) -> str:
-    lines = [f"| agent | grid | boards | walled in | CP @{k} (%) | Rout. @{k} | s / episode |",
-             "| --- | --- | --- | --- | --- | --- | --- |"]
+    lines = [f"| agent | grid | boards | walled in | CP @{k} (%) | Pot. @{k} | Pot. @{k} "
+             f"(d1-published) | Rout. @{k} | s / episode |",
+             "| --- | --- | --- | --- | --- | --- | --- | --- | --- |"]
     for r in rows:
         lines.append(f"| {r['agent']} | {r['config']} | {r['boards']} | {r['walled_in']} | "
-                     f"{100 * r['cp']:.1f} | "
+                     f"{100 * r['cp']:.1f} | {r['pot']:.2f} | {r['pot_d1_published']:.2f} | "
                      f"{r['rout']:.3f} | {r['episode_s']:.3f} |")
     return "\n".join(lines)
 
