@@ -75,3 +75,21 @@ def test_negotiated_rollout_through_the_cli_scores_clean(d3_set, tmp_path):
     report = record["agent_report"]  # the plan's counts, kept with the rollout
     assert report["open"] == {"boxed_in": 0, "congestion": 0, "budget": 0}
     assert report["connections"] > 0 and report["refused_wires"] == 0
+
+
+def test_route_negotiated_on_d2_boards_then_eval(board_set, tmp_path, capsys):
+    """`pcbdata route --router negotiated` routes whole boards; `pcbdata eval` scores them."""
+    import json
+
+    from pcbdata.cli import main
+
+    runs, report = tmp_path / "runs", tmp_path / "report"
+    assert main(["route", str(board_set), "--config", "d2", "--router", "negotiated",
+                 "--rollouts", "1", "--workers", "2", "--out", str(runs)]) == 0
+    assert "routed 4, failed 0" in capsys.readouterr().out
+    assert main(["eval", str(board_set), "--config", "d2", "--runs", str(runs), "--k", "1",
+                 "--out", str(report), "--workers", "2"]) == 0
+    summary = json.loads((report / "summary.json").read_text())
+    assert summary["cp"] == 1.0 and summary["n_boards"] == 4
+    assert main(["route", str(board_set), "--config", "d2", "--router", "negotiated",
+                 "--router-cmd", "x {dsn} {ses}", "--out", str(tmp_path / "r2")]) == 2
