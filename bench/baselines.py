@@ -13,7 +13,7 @@ published rows of `bench/published.json` (SPEC section 7.5), nothing typed by ha
     python bench/baselines.py run SET --config d3-c --method freeroute --rollouts 1
     python bench/baselines.py run SET --config d3-c --method reference
     python bench/baselines.py table [--write README.md]
-    python bench/baselines.py collect --work DIR   # results.json of every record, beside it
+    python bench/baselines.py collect --work DIR   # every record's results.json, bench/results/
 """
 from __future__ import annotations
 
@@ -28,7 +28,8 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 REPO = HERE.parent
-RECORDS = HERE / "results" / "baselines"
+RESULTS = HERE / "results"  # results.json files (`pcbdata leaderboard` reads them)
+RECORDS = RESULTS / "baselines"  # one record per README cell
 PUBLISHED = HERE / "published.json"
 ROUTERS = ("freeroute", "kicad-tools")
 #: Columns of the table, in the paper's shape (CP, Pot., Rout., Time) plus DRV, WL, Via.
@@ -108,12 +109,10 @@ def run(args) -> Path:
 
 
 def collect(args) -> None:
-    """Each record's `results.json` (the schema `pcbdata eval` writes), beside the record as
-    `<config>__<method>.results.json`: the eval is run again on the record's runs (its cache
-    answers), so `pcbdata leaderboard bench/results/baselines/*.results.json` reads them all."""
+    """Each record's `results.json` (the schema `pcbdata eval` writes) as
+    `bench/results/<config>__<method>.json`: the eval is run again on the record's runs (its
+    cache answers), so `pcbdata leaderboard bench/results/*.json --out site` reads them all."""
     for path in sorted(RECORDS.glob("*__*.json")):
-        if path.name.endswith(".results.json"):
-            continue
         record = json.loads(path.read_text())
         work = Path(args.work) / path.stem
         eval_command = next(c for c in record["commands"] if c.startswith("pcbdata eval"))
@@ -122,7 +121,7 @@ def collect(args) -> None:
         if not report.is_file():
             print(f"{path.name}: no results.json in {report.parent}", file=sys.stderr)
             continue
-        out = RECORDS / f"{path.stem}.results.json"
+        out = RESULTS / f"{path.stem}.json"
         out.write_text(report.read_text())
         print(f"wrote {out}", file=sys.stderr)
 
@@ -136,8 +135,7 @@ def _cell(record: dict) -> str:
 def table() -> str:
     """The README's table: our rows (CP %, Pot., Rout., mean (median) s per episode), then the
     published rows as published (CP as a fraction, mean s)."""
-    records = [json.loads(p.read_text()) for p in sorted(RECORDS.glob("*.json"))
-               if not p.name.endswith(".results.json")]
+    records = [json.loads(p.read_text()) for p in sorted(RECORDS.glob("*.json"))]
     header = "| method | " + " | ".join(SPLITS.values()) + " |"
     lines = [header, "| --- " * (len(SPLITS) + 1) + "|"]
     for method, label in METHODS.items():
@@ -193,7 +191,7 @@ def main() -> int:
     t = sub.add_parser("table", help="print the README's table from the records")
     t.add_argument("--write", type=Path, metavar="README",
                    help="put it between the README's baselines markers instead")
-    c = sub.add_parser("collect", help="copy each record's results.json beside it")
+    c = sub.add_parser("collect", help="each record's results.json into bench/results/")
     c.add_argument("--work", default="/tmp/pcbdata-baselines")
     args = parser.parse_args()
     if args.verb == "run":

@@ -6,7 +6,7 @@ same sample of boards in one run. Wall time and peak memory of each whole proces
     .venv/bin/python bench/bench_d3.py [--source PCBENCH_DIR] [--sample 100]
 
 Without --source the shared snapshot (../shared/pcbench/pcbench.tar.xz) is unpacked to a
-temporary folder. Results: bench/results/d3.json.
+temporary folder. Results: bench/runs/d3.json.
 """
 from __future__ import annotations
 
@@ -47,7 +47,7 @@ def main() -> None:
     parser.add_argument("--source", type=Path, default=None)
     parser.add_argument("--sample", type=int, default=100)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--results", type=Path, default=HERE / "results" / "d3.json")
+    parser.add_argument("--results", type=Path, default=HERE / "runs" / "d3.json")
     args = parser.parse_args()
     tmp = Path(tempfile.mkdtemp(prefix="bench-d3-"))
     try:

@@ -17,7 +17,7 @@ excepted).
         [--d3-build 100]
 
 Without --runs the D2 set is built and routed in --work (freeroute, about 4 min on 2 cores).
-Writes bench/results/drc_wait.json.
+Writes bench/runs/drc_wait.json.
 """
 from __future__ import annotations
 
@@ -184,7 +184,7 @@ def main() -> int:
     parser.add_argument("--d3", type=int, default=24, help="real D3 boards (default 24)")
     parser.add_argument("--d3-build", type=int, default=100,
                         help="boards of the D3 build comparison (default 100; 0: skip)")
-    parser.add_argument("--json", type=Path, default=ROOT / "bench" / "results" / "drc_wait.json")
+    parser.add_argument("--json", type=Path, default=ROOT / "bench" / "runs" / "drc_wait.json")
     args = parser.parse_args()
     if fastwait.library_path() is None:
         print("the preload is not built: run scripts/build-fastwait.sh", file=sys.stderr)

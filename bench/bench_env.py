@@ -6,7 +6,7 @@ scripted agent by `pcbdata eval` on its saved boards. Boards come from the gener
 bytes `pcbdata build d2` writes) unless --set is given. Uses the walkaround mode when the
 walkaround router is installed, else mark_obstacles (said in the output).
 
-    .venv/bin/python bench/bench_env.py [--set SET] [--limit N] [--json bench/results/env.json]
+    .venv/bin/python bench/bench_env.py [--set SET] [--limit N] [--json bench/runs/env.json]
         [--preload LIB]   # e.g. the LD_PRELOAD library of the drcwait branch
 """
 from __future__ import annotations

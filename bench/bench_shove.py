@@ -8,7 +8,7 @@ fallback's tries, its successes (tracks of other nets moved, or a path found wit
 any) and the undone ones; then CP @1 of both agents' boards by `pcbdata eval`.
 
     .venv/bin/python bench/bench_shove.py [--config d2] [--set SET] [--limit N]
-        [--json bench/results/shove.json]
+        [--json bench/runs/shove.json]
 D2 configs are generated when --set is not given; D3 needs --set (a `pcbdata build d3` output).
 
 `--router-only` (D2 levels, no KiCad): close to the protocol of `bench/bench_walkaround.py`

@@ -70,7 +70,7 @@ def main() -> None:
         results["build_d2_full_checked_s"] = full["seconds"]
         results["build_d2_full_checked_peak_mib"] = full["peak_mib"]
 
-    out = Path(__file__).parent / "results" / "synthetic.json"
+    out = Path(__file__).parent / "runs" / "synthetic.json"
     out.parent.mkdir(exist_ok=True)
     out.write_text(json.dumps(results, indent=1) + "\n")
     print(json.dumps(results, indent=1))

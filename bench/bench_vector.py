@@ -12,7 +12,7 @@ at most `--max-steps` steps (finished episodes reset inside the timed run, as in
 after every copper change and DRC at the end only. Timing starts after the first reset (the
 KiCad workers' start-up is not counted); each row is the fastest of `--repeat` runs.
 
-    .venv/bin/python bench/bench_vector.py [--steps 400] [--sizes 1,2,4] [--out bench/results]
+    .venv/bin/python bench/bench_vector.py [--steps 400] [--sizes 1,2,4] [--out bench/runs]
 """
 from __future__ import annotations
 
@@ -149,7 +149,7 @@ def main() -> int:
     parser.add_argument("--max-steps", type=int, default=100, help="episode length limit")
     parser.add_argument("--count", type=int, default=32, help="generated D2 test boards")
     parser.add_argument("--repeat", type=int, default=2, help="runs per row; the fastest counts")
-    parser.add_argument("--out", default="bench/results", help="folder of vector.json/.md")
+    parser.add_argument("--out", default="bench/runs", help="folder of vector.json/.md")
     args = parser.parse_args()
     sizes = [int(s) for s in args.sizes.split(",")]
     load_before = os.getloadavg()

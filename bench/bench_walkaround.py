@@ -7,7 +7,7 @@ time, per method (direct, two-segment, search), connections left open, and the e
 independent legality check of every routed board. Baseline in the same run: the direct and
 two-segment tries alone (what `mark_obstacles` would lay, kept only when clear).
 
-    .venv/bin/python bench/bench_walkaround.py [--limit 128] [--json bench/results/walkaround.json]
+    .venv/bin/python bench/bench_walkaround.py [--limit 128] [--json bench/runs/walkaround.json]
 """
 from __future__ import annotations
 

@@ -4,7 +4,7 @@ For every D2 level of the registry: build N test boards (no KiCad check: the boa
 pinned by the golden tests), route them with each router (`pcbdata route`), score @1 and @k
 (`pcbdata eval`), and print one table row per level and router: CP @1 and @k, Rout., DRV, WL,
 Via @k and the median router wall and CPU seconds per board. Writes
-`bench/results/levels.json` with machine, date and load.
+`bench/runs/levels.json` with machine, date and load.
 
     .venv/bin/python bench/calibrate_levels.py --boards 64 --rollouts 5 \
         [--routers freeroute,kicad-tools]
@@ -55,7 +55,7 @@ def main() -> int:
     parser.add_argument("--rollouts", type=int, default=5)
     parser.add_argument("--routers", default="freeroute")
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
-    parser.add_argument("--out", default=str(Path(__file__).parent / "results" / "levels.json"))
+    parser.add_argument("--out", default=str(Path(__file__).parent / "runs" / "levels.json"))
     args = parser.parse_args()
     levels = [s for s in registry().values() if s.family == "d2"]
     rows, started = [], time.time()

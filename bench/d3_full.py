@@ -2,7 +2,7 @@
 
     .venv/bin/python bench/d3_full.py --source PCBENCH_DIR --out DIR [--workers 2]
 
-Results: bench/results/d3_full.json (plus the build's own fate and tier summary).
+Results: bench/runs/d3_full.json (plus the build's own fate and tier summary).
 """
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ def main() -> None:
     parser.add_argument("--source", required=True)
     parser.add_argument("--out", required=True)
     parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--results", type=Path, default=HERE / "results" / "d3_full.json")
+    parser.add_argument("--results", type=Path, default=HERE / "runs" / "d3_full.json")
     args = parser.parse_args()
     run = run_measured([sys.executable, "-m", "pcbdata", "build", "d3", "--quiet", "--source",
                         args.source, "--out", args.out, "--workers", str(args.workers)],

@@ -6,7 +6,7 @@ and the seven missing inputs. Prints one line per fact and exits 1 if any fails;
 records the outcome with the machine, the date and the build's recipe.
 
     pcbdata build d3 --source PCBENCH --out build/d3
-    python bench/d3_published.py build/d3 --json bench/results/d3_published.json
+    python bench/d3_published.py build/d3 --json bench/runs/d3-published.json
 """
 from __future__ import annotations
 

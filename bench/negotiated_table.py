@@ -1,0 +1,71 @@
+"""Per-board table of `--agent negotiated` runs: connections planned, the ones left open by
+cause (boxed-in pin, congestion, budget), route calls, rip-ups, rounds, and what KiCad found at
+the end (unconnected items, DRV), with each rollout's time; beside it, where given, another
+agent's runs on the same boards (U and DRV per board, best rollout by fewest U).
+
+    python bench/negotiated_table.py RUNS [--vs OTHER_RUNS] [--json bench/runs/X.json]
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+from pathlib import Path
+
+CAUSES = ("boxed_in", "congestion", "budget")
+
+
+def rollouts(runs: Path) -> dict[str, list[dict]]:
+    out: dict[str, list[dict]] = {}
+    for sidecar in sorted(runs.glob("*/*.json")):
+        out.setdefault(sidecar.parent.name, []).append(json.loads(sidecar.read_text()))
+    return out
+
+
+def rows(runs: Path, other: Path | None) -> list[dict]:
+    mine, theirs = rollouts(runs), rollouts(other) if other else {}
+    table = []
+    for board_id, records in sorted(mine.items()):
+        best = min(records, key=lambda r: (r["unconnected"], r["drv"], r["rollout"]))
+        report = best.get("agent_report") or {}
+        row = {"board": board_id, "rollouts": len(records),
+               "connections": report.get("connections"),
+               **{c: (report.get("open") or {}).get(c) for c in CAUSES},
+               "route_calls": report.get("route_calls"), "rips": report.get("rips"),
+               "rounds": report.get("rounds"), "U": best["unconnected"], "DRV": best["drv"],
+               "clean": sum(r["unconnected"] == 0 and r["drv"] == 0 for r in records),
+               "median_s": statistics.median(r["time_s"] for r in records)}
+        if board_id in theirs:
+            other_best = min(theirs[board_id], key=lambda r: (r["unconnected"], r["drv"]))
+            row.update(other_U=other_best["unconnected"], other_DRV=other_best["drv"])
+        table.append(row)
+    return table
+
+
+def markdown(table: list[dict]) -> str:
+    columns = list(table[0]) if table else []
+    lines = ["| " + " | ".join(columns) + " |", "|" + " --- |" * len(columns)]
+    for row in table:
+        cells = [f"{v:.1f}" if isinstance(v, float) else ("-" if v is None else str(v))
+                 for v in row.values()]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("runs", type=Path, help="a `pcbdata rollout --agent negotiated` folder")
+    parser.add_argument("--vs", type=Path, help="another agent's runs on the same boards")
+    parser.add_argument("--json", type=Path, help="write the rows here")
+    args = parser.parse_args()
+    table = rows(args.runs, args.vs)
+    print(markdown(table), end="")
+    if args.json:
+        args.json.write_text(json.dumps({"command": " ".join(sys.argv), "rows": table},
+                                        indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
