@@ -78,9 +78,24 @@ def d3_tier_boards(d3_root: Path, tier: str) -> list[Board]:
                   / tree.BOARD_FILE) for r in rows]
 
 
-def halves(boards: list[Board]) -> tuple[list[Board], list[Board]]:
-    """(calibration = odd row numbers, held out = even), row numbers counted from 1."""
-    return boards[0::2], boards[1::2]
+def calibration_names(tier: str) -> frozenset[str]:
+    """The tier's calibration half by board name, as shipped
+    (`pcbdata/resources/realism/calibration.json`: the odd positions of the tier in the D3
+    1.0.0 table, which the levels were calibrated on)."""
+    import json
+
+    from pcbdata.resources import resource_path
+
+    data = json.loads(resource_path("realism", "calibration.json").read_text(encoding="utf-8"))
+    return frozenset(data["tiers"][tier])
+
+
+def halves(boards: list[Board], tier: str) -> tuple[list[Board], list[Board]]:
+    """(calibration, held out): the shipped calibration half by name, the rest of the tier
+    held out (boards D3 gained since join it), both in table order."""
+    names = calibration_names(tier)
+    calibration = [b for b in boards if b.board_id[5:] in names]
+    return calibration, [b for b in boards if b.board_id[5:] not in names]
 
 
 def synthetic_boards(root: Path, config: str, split: str, limit: int | None) -> list[Board]:
@@ -98,7 +113,7 @@ def targets(d3_root: Path, external: dict | None = None) -> dict:
     PCBench boards of each tier's size, that of the extended sample)."""
     out: dict = {"definitions": _definitions(), "source": str(d3_root), "tiers": {}}
     for tier in TIERS:
-        calibration, _ = halves(d3_tier_boards(d3_root, tier))
+        calibration, _ = halves(d3_tier_boards(d3_root, tier), tier)
         stats = measure(calibration)
         out["tiers"][tier] = {"boards": len(calibration),
                               "board_ids": [b.board_id for b in calibration],
@@ -169,7 +184,7 @@ def ks_table(d3_root: Path, tiers: list[str], synthetic: list[BoardStatistics] |
     (`pads_matched_weights`); without a synthetic set, that sample against the held-out half."""
     table: dict = {}
     for tier in tiers:
-        calibration, held_out = halves(d3_tier_boards(d3_root, tier))
+        calibration, held_out = halves(d3_tier_boards(d3_root, tier), tier)
         cal_stats, held_stats = measure(calibration), measure(held_out)
         tier_side = (cal_stats, [1.0] * len(cal_stats))
         if half == "extended":
