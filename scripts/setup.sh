@@ -21,7 +21,7 @@ fi
 if [ ! -x .venv/bin/python ]; then
     /usr/bin/python3 -m venv --system-site-packages .venv
 fi
-.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test,route,kicad-tools,ray,train,jumanji]"
+.venv/bin/python -m pip install -q --disable-pip-version-check -e ".[test,route,kicad-tools,ray,train,jumanji,realism]"
 # kicad-tools' optional C++ router backend: 10-100x faster than its Python one.
 if ! .venv/bin/python -c "import kicad_tools.router.router_cpp" 2>/dev/null; then
     .venv/bin/kct build-native >/dev/null 2>&1 \

@@ -41,3 +41,28 @@ def test_halves_split_a_tier_by_name():
     calibration, held_out = bench.halves(boards, "A")
     assert [b.board_id[5:] for b in calibration] == names
     assert [b.board_id[5:] for b in held_out] == ["new-board", "other"]
+
+
+def test_spec_bound_and_classifier_on_plain_samples():
+    """SPEC 2b's per-statistic bound, and the classifier test: two draws of one population are
+    not told apart (AUC near 0.5), a shifted one is (AUC near 1), on made-up statistics."""
+    import random
+
+    import pytest
+
+    pytest.importorskip("sklearn", reason="the classifier test needs scikit-learn "
+                                          "(pip install 'pcbdata[realism]')")
+    from pcbdata.synthetic.board_statistics import STATISTICS
+
+    bench = _bench_realism()
+    assert bench.spec_bound(2000, 50) == pytest.approx(0.233, abs=1e-3)
+    assert bench.spec_bound(2000, 143) == 0.15  # 0.142 < 0.15
+    rng = random.Random(0)
+
+    def board(shift: float):
+        return type("S", (), {n: rng.gauss(10 + shift, 2) for n in STATISTICS})()
+
+    same = bench.classifier_auc([board(0) for _ in range(120)], [board(0) for _ in range(120)])
+    apart = bench.classifier_auc([board(0) for _ in range(120)], [board(4) for _ in range(120)])
+    assert same[0] < 0.65 < 0.95 < apart[0]
+    assert set(apart[1]) == set(STATISTICS)
