@@ -155,7 +155,7 @@ def test_the_d3_releases_compare_board_by_board():
     manifest = json.loads(json.dumps(release.manifest))
     [check] = check_release(manifest)
     assert check.problems == [] and not check.subset
-    assert check.compared == [("full", 286, 286), ("test", 10, 10)]
+    assert check.compared == [("full", 285, 285), ("test", 10, 10)]
     full = manifest["configs"]["d3-b"]["splits"]["full"]["boards"]
     board_id = sorted(full)[3]
     full[board_id]["files"]["reference.kicad_pcb"] = "0" * 64
@@ -167,6 +167,19 @@ def test_the_d3_releases_compare_board_by_board():
         f"the release has '{release.entry['recipe']['sha256']}'",
         f"d3-b/full/{board_id}: differs from the pinned release (reference.kicad_pcb, licence)",
     ]
+
+
+def test_an_earlier_d3_release_is_checked_against_its_own_pin():
+    """A set built with recipe 1.0.0 (`pcbdata build d3 --recipe d3-1.0.0`) verifies against
+    the release of its set version, kept as `d3-b@1.0.0`, not against today's."""
+    from pcbdata.publish.manifests import released_configs
+
+    old = pinned_release("d3-b", "1.0.0")
+    assert old is not None and old.source.endswith("d3-b@1.0.0.json.gz")
+    assert "d3-b@1.0.0" not in released_configs()
+    [check] = check_release(json.loads(json.dumps(old.manifest)))
+    assert check.problems == [] and check.compared == [("full", 286, 286), ("test", 10, 10)]
+    assert pinned_release("d3-b", "9.9.9").version == "2.0.0"  # no such pin: today's
 
 
 def test_a_declared_subset_may_hold_only_released_boards_and_no_more_than_the_release():
