@@ -389,12 +389,23 @@ class Negotiator:
         return None
 
     def _guide_spots(self, router, net: str, guide, rule: NetRule, from_end: bool) -> list:
-        """(part of `guide` up to the spot, or from it; the spot) for spots on the guide path
-        every GUIDE_STEP where a via fits, nearest the guide's end first (`from_end`) or its
-        start; at most GUIDE_TRIES."""
+        """(part of `guide` up to the spot, or from it; the spot) for the via spots on the
+        guide (`_cuts`), nearest the guide's end first (`from_end`) or its start; at most
+        GUIDE_TRIES."""
+        cuts = self._cuts(router, net, guide, rule)
+        chosen = list(reversed(cuts)) if from_end else cuts
+        out = []
+        for _, k, point in chosen[:GUIDE_TRIES]:
+            part = guide[:k + 1] + (point,) if from_end else (point,) + guide[k + 1:]
+            out.append((part, point))
+        return out
+
+    def _cuts(self, router, net: str, guide, rule: NetRule) -> list:
+        """Points on a guide path every GUIDE_STEP (exact octilinear steps) where a via fits,
+        as (distance from the start, segment index, point), nearest the start first."""
         if not guide or len(guide) < 2:
             return []
-        cuts = []  # (distance from the start, segment index, point)
+        cuts = []
         run = 0.0
         for k, (a, b) in enumerate(zip(guide, guide[1:])):
             dx, dy = b[0] - a[0], b[1] - a[1]
@@ -411,18 +422,37 @@ class Negotiator:
             return []
         fits = router.vias_fit(net, [p for _, _, p in cuts], rule.via_diameter, rule.clearance,
                                self.layers)
-        chosen = [cut for cut, ok in zip(cuts, fits) if ok]
-        chosen.sort(key=lambda cut: -cut[0] if from_end else cut[0])
-        out = []
-        for _, k, point in chosen[:GUIDE_TRIES]:
-            part = guide[:k + 1] + (point,) if from_end else (point,) + guide[k + 1:]
-            out.append((part, point))
-        return out
+        return [cut for cut, ok in zip(cuts, fits) if ok]
+
+    def _guided_two_vias(self, router, c: Connection, layer: str, middle_layer: str,
+                         rule: NetRule) -> Wire | None:
+        """a and b on `layer`, the way between them on `middle_layer`: a guide path from a's
+        place to b's there, a via on it near each end, short legs on `layer` to the vias."""
+        guide = self._leg(router, c.net, middle_layer, c.a.at, c.b.at, rule)
+        cuts = self._cuts(router, c.net, guide, rule)
+        half = GUIDE_TRIES // 2
+        for d1, k1, p1 in cuts[:half]:
+            first = self._leg(router, c.net, layer, c.a.at, p1, rule)
+            if first is None:
+                continue
+            for d2, k2, p2 in list(reversed(cuts))[:half]:
+                if d2 <= d1:
+                    continue
+                last = self._leg(router, c.net, layer, p2, c.b.at, rule)
+                if last is not None:
+                    middle = (p1, *guide[k1 + 1:k2 + 1], p2)
+                    return Wire(c.net, ((layer, first), (middle_layer, middle),
+                                        (layer, last)), (p1, p2))
+        return None
 
     def _two_vias(self, router, c: Connection, layer: str, rule: NetRule) -> Wire | None:
         others = [lay for lay in self.layers if lay != layer]
         if not others:
             return None
+        for middle_layer in others:
+            wire = self._guided_two_vias(router, c, layer, middle_layer, rule)
+            if wire:
+                return wire
         near_a = self._spots(router, c, rule, c.a)[:VIA_PAIR_TRIES]
         near_b = self._spots(router, c, rule, c.b)[:VIA_PAIR_TRIES]
         for va in near_a:
