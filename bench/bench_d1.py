@@ -56,9 +56,9 @@ def _walled_boards(config: str, limit: int) -> int:
 
 
 def _grid(root: Path, work: Path, config: str, agent: str, args) -> dict:
-    from pcbdata.agents.rollout import run_rollouts
     from pcbdata.evaluator.metrics import CONVENTIONS
     from pcbdata.evaluator.runs import evaluate_set
+    from pcbdata.runners.rollout import run_rollouts
 
     name = agent.rsplit(":", 1)[-1]
     runs, report = work / f"runs-{name}-{config}", work / f"report-{name}-{config}"

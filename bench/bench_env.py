@@ -32,8 +32,8 @@ def _write_set(root: Path, limit: int) -> None:
 def _episodes(root: Path, config: str, drc: str, limit: int, mode: int, preload: str | None,
               runs: Path | None, seed: int = 0) -> dict:
     import pcbdata.env
-    from pcbdata.agents.rollout import run_episode
     from pcbdata.agents.scripted import ScriptedAgent
+    from pcbdata.runners.rollout import run_episode
 
     engine_env = {"LD_PRELOAD": preload} if preload else None
     env = pcbdata.env.make(root, config, split="test", drc=drc, engine_env=engine_env)

@@ -11,7 +11,7 @@ Same machine, same work, one run each, in this order:
    tracks: shorts, clearance violations and unconnected items); the reports must be the same;
 4. `pcbdata rollout` of the scripted agent (`--rollout-boards` D2 test boards x 1 rollout, DRC
    after every step): one task per rollout; the files must be the same but for `time_s`;
-5. environment actors (`pcbdata.agents.ray_actors`): the same scripted episodes stepped from the
+5. environment actors (`pcbdata.runners.ray_actors`): the same scripted episodes stepped from the
    driver on one actor per CPU (`step_episodes`, one round trip per step) against one local
    environment (`run_episodes`); the episode records must be the same.
 
@@ -101,7 +101,7 @@ def evaluate(root: Path, runs: Path, out: Path, executor, workers: int) -> dict:
 
 
 def rollout(root: Path, out: Path, executor, workers: int, boards: int) -> dict:
-    from pcbdata.agents.rollout import run_rollouts
+    from pcbdata.runners.rollout import run_rollouts
 
     summary, wall, cpu = timed(lambda: run_rollouts(
         root, "d2", "test", "scripted", 1, out, workers, limit=boards, log=lambda line: None,
@@ -129,8 +129,8 @@ def actors(root: Path, cores: int, boards: int) -> dict:
     import gymnasium as gym
     import ray
 
-    from pcbdata.agents.ray_actors import close_actors, make_actors, run_episodes, step_episodes
     from pcbdata.agents.scripted import ScriptedAgent
+    from pcbdata.runners.ray_actors import close_actors, make_actors, run_episodes, step_episodes
 
     specs = [(f"board_{i:05d}", 0) for i in range(boards)]
     options = {"root": str(root), "split": "test"}

@@ -392,9 +392,9 @@ def difficulty(args, d3_root: Path, tier: str) -> dict:
 def _rollouts(root: Path, config: str, split: str, board_ids: list[str], agent: str,
               runs: Path, workers: int, drc: str) -> None:
     """One rollout (seed 0) per board, as `pcbdata rollout` runs them, for chosen boards."""
-    from pcbdata.agents.rollout import ROLLOUT_TIMEOUT, pending
     from pcbdata.env.registry import env_id_for
     from pcbdata.executors import resolve
+    from pcbdata.runners.rollout import ROLLOUT_TIMEOUT, pending
 
     todo = pending(board_ids, 1, runs)
     env_kwargs = {"id": env_id_for(config), "config": config, "root": str(root.resolve()),
@@ -405,7 +405,7 @@ def _rollouts(root: Path, config: str, split: str, board_ids: list[str], agent: 
     with resolve(None).pool(workers=max(1, min(workers, len(tasks))),
                             task_timeout=ROLLOUT_TIMEOUT, tasks_per_worker=10**9,
                             memory_limit_mb=0) as pool:
-        outcomes = pool.map("pcbdata.agents.rollout:rollout_task", tasks)
+        outcomes = pool.map("pcbdata.runners.rollout:rollout_task", tasks)
         errors = [_report_rollout(done, len(tasks), config, todo[outcome.index][0], outcome)
                   for done, outcome in enumerate(outcomes, 1)]
     if all(errors):

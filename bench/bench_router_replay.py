@@ -70,7 +70,8 @@ def _recording(events: list, board_name: list):
 
 def record(args) -> int:
     import pcbdata.env
-    from pcbdata.agents.rollout import make_agent, run_episode
+    from pcbdata.agents.registry import make_agent
+    from pcbdata.runners.rollout import run_episode
 
     events: list = []
     name = [""]

@@ -56,7 +56,7 @@ class SyntheticOptions:
     generation and checks run (`pcbdata.executors`: None or "local" for this machine's
     worker processes, `RayExecutor(address)` or "ray" for a Ray cluster; same bytes);
     `reference`: route each board of the plan's splits with a bundled agent and keep a clean
-    rollout as its reference (`pcbdata.agents.reference.plan(...)`; None: no routing)."""
+    rollout as its reference (`pcbdata.runners.reference.plan(...)`; None: no routing)."""
 
     splits: list[str] | None = None
     seed: int | None = None

@@ -27,7 +27,7 @@ LAYERS = (
     ("pcbdata.env",),
     ("pcbdata.env.wrappers", "pcbdata.env.llm"),
     ("pcbdata.agents", "pcbdata.learn"),
-    ("pcbdata.cli", "pcbdata", "pcbdata.__main__"),
+    ("pcbdata.runners", "pcbdata.cli", "pcbdata", "pcbdata.__main__"),
     ("pcbdata.testing",),
 )
 #: `from pcbdata import __version__` is metadata, not a layer.

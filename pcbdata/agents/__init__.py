@@ -1,10 +1,12 @@
 """Agents that route boards through the environment's actions (`act(obs, info) -> action`),
-and the runners that play them.
+and their registry (`registry`: `AGENTS`, `make_agent`).
 
 - `scripted`: the rule-based baseline (`scripted`, `scripted-shove`);
+- `negotiated`: the whole board planned with rip-up and reroute, then laid (`negotiated`);
 - `d1`: D1 boards planned on their lattice with rip-up and reroute (`d1`);
 - `random`: masked random actions (`random`);
-- `llm_standin`: a scripted stand-in for a language model, for the LLM interface's tests;
-- `rollout`: `pcbdata rollout` as a library (episodes in worker processes, RUNS written);
-- `ray_actors`: environments as Ray actors, stepped from one driver.
+- `llm_agents`, `llm_client`: language models on any OpenAI-compatible server;
+- `llm_standin`: a scripted stand-in for a language model, for the LLM interface's tests.
+
+The runners that play them are in `pcbdata.runners`.
 """

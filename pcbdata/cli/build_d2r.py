@@ -1,9 +1,9 @@
 """`pcbdata build d2r`: realistic synthetic boards, one level per D3 tier (SPEC 2b)."""
 from __future__ import annotations
 
-from pcbdata.agents.reference import AGENTS, DEFAULT_AGENT, DEFAULT_ROLLOUTS, MAX_ROLLOUTS
 from pcbdata.cli import _build_options as common
 from pcbdata.cli import _checks as checks
+from pcbdata.runners.reference import AGENTS, DEFAULT_AGENT, DEFAULT_ROLLOUTS, MAX_ROLLOUTS
 
 FAMILY = "d2r"
 HELP = ("D2R realistic boards (multi-pad parts, net classes, shaped outlines), one level per "
@@ -60,8 +60,8 @@ def run(args) -> int:
 
 def reference_plan(args):
     """The `ReferencePlan` the options ask for, or None (no --reference-agent)."""
-    from pcbdata.agents.reference import plan
     from pcbdata.core.errors import UserError
+    from pcbdata.runners.reference import plan
 
     if args.reference_agent is None:
         given = [flag for flag, value in (("--reference-rollouts", args.reference_rollouts),

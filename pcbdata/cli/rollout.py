@@ -91,8 +91,8 @@ def llm_options(args) -> dict | None:
 
 
 def run(args) -> int:
-    from pcbdata.agents.rollout import ROLLOUT_TIMEOUT, run_rollouts
     from pcbdata.core.errors import UserError
+    from pcbdata.runners.rollout import ROLLOUT_TIMEOUT, run_rollouts
 
     if args.rollouts < 1 or args.workers < 1:
         raise UserError("--rollouts and --workers must be at least 1")

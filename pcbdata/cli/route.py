@@ -58,8 +58,8 @@ def run(args) -> int:
 def _negotiated(args) -> int:
     """The negotiated planner on whole boards: its plan laid in the environment (KiCad holds
     and judges the copper), DRC at the end, the rollouts written as `pcbdata eval` reads them."""
-    from pcbdata.agents.rollout import run_rollouts
     from pcbdata.core.errors import UserError
+    from pcbdata.runners.rollout import run_rollouts
 
     if args.router_cmd:
         raise UserError("--router-cmd is for Specctra routers, not --router negotiated")

@@ -6,7 +6,7 @@ no DRC item of any severity left, as the board's `reference.kicad_pcb`. Nothing 
 a board the agent does not complete stays in the set, without a reference and with the
 reason, so the distribution of boards is the one the generator draws.
 
-The task is named by the plan (`ReferencePlan.task`, filled by `pcbdata.agents.reference`),
+The task is named by the plan (`ReferencePlan.task`, filled by `pcbdata.runners.reference`),
 so this layer runs the agents' code in workers without importing it.
 
 Resumable: every final result (routed, not completed, refused by the build's KiCad check) is
@@ -51,7 +51,7 @@ Board = tuple[str, str, dict]
 
 @dataclass(frozen=True)
 class ReferencePlan:
-    """How a build finds reference routings (plain data; `pcbdata.agents.reference.plan` makes
+    """How a build finds reference routings (plain data; `pcbdata.runners.reference.plan` makes
     it). `task` is the worker function ("module:function") that routes one board; `splits`
     None means `DEFAULT_SPLITS` among the splits being built; `env_options` are the routing
     environment's options besides its id, config, set and split; `env_version` the

@@ -21,7 +21,7 @@ def _board_id(d3_set, name: str) -> str:
 def _episode(d3_set, board_id: str, tmp_path, name: str):
     import pcbdata.env
     from pcbdata.agents.negotiated import NegotiatedAgent
-    from pcbdata.agents.rollout import run_episode
+    from pcbdata.runners.rollout import run_episode
 
     env = pcbdata.env.make(d3_set, "d3-b", split="test", drc="terminal")
     try:

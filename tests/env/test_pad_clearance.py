@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from pcbdata.agents.rollout import run_episode
 from pcbdata.agents.scripted import ScriptedAgent
+from pcbdata.runners.rollout import run_episode
 
 OVERRIDE_MM = 2.0
 BOARDS = 4

@@ -7,10 +7,10 @@ import math
 import pytest
 
 from pcbdata.agents.random import RandomAgent
-from pcbdata.agents.rollout import run_episode
 from pcbdata.agents.scripted import ScriptedAgent
 from pcbdata.env.reward import EVALUATOR_COUNTING, Telescope
 from pcbdata.env.types import MARK_OBSTACLES, NET_SELECT, WALKAROUND
+from pcbdata.runners.rollout import run_episode
 from tests.env.agents_for_tests import StopsEarly
 from tests.helpers import skip_without_snapshot
 

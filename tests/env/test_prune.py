@@ -64,7 +64,8 @@ def test_no_stub_stays_where_a_push_n_shove_reroute_crossed_it(tmp_path):
     # its own tracks, whose far end then touched nothing; deleting that track split the net,
     # so the clean-up was undone and KiCad's DRC counted a dangling track (CP+ < CP).
     import pcbdata.env
-    from pcbdata.agents.rollout import make_agent, run_episode
+    from pcbdata.agents.registry import make_agent
+    from pcbdata.runners.rollout import run_episode
     from pcbdata.testing.sets import write_set
 
     write_set(tmp_path, "d2-hard", "test", 84)

@@ -1,4 +1,4 @@
-"""Environment workers as Ray actors (`pcbdata.agents.ray_actors`) on the 2-CPU local
+"""Environment workers as Ray actors (`pcbdata.runners.ray_actors`) on the 2-CPU local
 Ray cluster: seeded episodes stepped on two actors give the observations, rewards and saved
 boards of the same episodes run locally; a killed actor is one clear error; no actor and no
 KiCad worker outlives its end."""
@@ -34,7 +34,7 @@ def _processes(ray, actors) -> list[int]:
 @pytest.mark.slow
 def test_episodes_on_two_actors_are_the_local_episodes(ray_cluster, board_set, make_env,
                                                         tmp_path):
-    from pcbdata.agents.ray_actors import close_actors, make_actors, run_episodes, step_episodes
+    from pcbdata.runners.ray_actors import close_actors, make_actors, run_episodes, step_episodes
 
     options = {"root": str(board_set), "split": "test", "max_steps": 30}
     local = run_episodes(make_env("d2", max_steps=30), _agent, EPISODES,
@@ -62,7 +62,7 @@ def test_episodes_on_two_actors_are_the_local_episodes(ray_cluster, board_set, m
 
 @pytest.mark.slow
 def test_a_killed_actor_is_one_clear_error_and_leaves_no_process(ray_cluster, board_set):
-    from pcbdata.agents.ray_actors import EnvActorError, close_actors, make_actors, step_episodes
+    from pcbdata.runners.ray_actors import EnvActorError, close_actors, make_actors, step_episodes
 
     actors = make_actors(2, ENV_ID, root=str(board_set), max_steps=30)
     ray_cluster.get([a.reset.remote(seed=0, options={"index": 0}) for a in actors])
@@ -88,8 +88,8 @@ def test_a_killed_actor_is_one_clear_error_and_leaves_no_process(ray_cluster, bo
 def test_a_bad_option_or_id_is_the_environment_s_error_on_the_driver(ray_cluster):
     import gymnasium as gym
 
-    from pcbdata.agents.ray_actors import make_actors
     from pcbdata.env.errors import EnvOptionError
+    from pcbdata.runners.ray_actors import make_actors
 
     with pytest.raises(EnvOptionError, match="did you mean 'max_steps'"):
         make_actors(1, ENV_ID, max_stepz=3)

@@ -4,7 +4,8 @@ UUIDs (for the footprint properties it adds at load, for new tracks and vias), w
 and any executor (tests/env/test_rollout_ray.py compares local and Ray)."""
 from __future__ import annotations
 
-from pcbdata.agents.rollout import make_agent, run_episode
+from pcbdata.agents.registry import make_agent
+from pcbdata.runners.rollout import run_episode
 
 
 def _episode(env, board_id: str, path) -> bytes:

@@ -10,8 +10,8 @@ from pathlib import Path
 import pytest
 
 from pcbdata.agents.d1 import D1Agent
-from pcbdata.agents.rollout import run_episode
 from pcbdata.agents.scripted import ScriptedAgent
+from pcbdata.runners.rollout import run_episode
 from tests.helpers import skip_without_snapshot
 
 GEOMETRY_VIOLATIONS = {"clearance", "shorting_items", "tracks_crossing", "copper_edge_clearance",

@@ -9,7 +9,7 @@ import pytest
 
 pytest.importorskip("torch")
 
-from pcbdata.agents.rollout import make_agent  # noqa: E402
+from pcbdata.agents.registry import make_agent  # noqa: E402
 from pcbdata.cli import main  # noqa: E402
 from pcbdata.core.errors import UserError  # noqa: E402
 from pcbdata.core.hashing import sha256_file  # noqa: E402

@@ -138,8 +138,8 @@ def test_a_build_without_the_option_drops_them(routed, tmp_path):
 def mixed(tmp_path_factory):
     """Three boards: board_00000 routed, board_00001 not completed, board_00002's worker
     dies (the test agent), built with the library's options."""
-    from pcbdata.agents.reference import plan
     from pcbdata.builders import SyntheticOptions, build_d2r
+    from pcbdata.runners.reference import plan
 
     out = tmp_path_factory.mktemp("mixed") / "set"
     reference = dataclasses.replace(plan("scripted", 1), agent=AGENT_FOR_TESTS)
@@ -208,8 +208,8 @@ def test_engine_failures_are_tried_again(mixed, tmp_path):
 def test_the_build_check_refuses_a_reference_that_is_not_clean(tmp_path, capsys):
     """A reference the worker wrongly calls routed fails the build's KiCad check: it is
     dropped with the reason, logged, and the build still ends with a manifest."""
-    from pcbdata.agents.reference import plan
     from pcbdata.builders import SyntheticOptions, build_d2r
+    from pcbdata.runners.reference import plan
 
     reference = dataclasses.replace(
         plan("scripted", 1), task="tests.synthetic.agents_for_reference:claims_the_bare_board")

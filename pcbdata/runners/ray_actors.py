@@ -176,7 +176,7 @@ def observation_digest(obs) -> str:
 class _Run:
     """One episode in progress: turns each (obs, ...) the environment returns into the next
     action, `FINISH` when the agent's `done` turns True (the episode is ended with
-    `finish_episode()`, as `pcbdata.agents.rollout.run_episode` does), or None when the episode
+    `finish_episode()`, as `pcbdata.runners.rollout.run_episode` does), or None when the episode
     is over (terminated or truncated)."""
 
     def __init__(self, index: int, spec: EpisodeSpec, agent):

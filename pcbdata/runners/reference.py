@@ -36,8 +36,8 @@ def plan(agent: str = DEFAULT_AGENT, rollouts: int = DEFAULT_ROLLOUTS,
          splits: list[str] | tuple[str, ...] | None = None) -> ReferencePlan:
     """The plan of a build's reference routing (checked: a bad value is a `UserError`).
     `splits` None: validation and test, of the splits being built."""
-    from pcbdata.agents.rollout import ROLLOUT_TIMEOUT
     from pcbdata.env.registry import VERSION
+    from pcbdata.runners.rollout import ROLLOUT_TIMEOUT
     from pcbdata.spec.configs import SYNTHETIC_SPLITS
 
     if agent not in AGENTS:
@@ -62,11 +62,12 @@ def route_board(root: str, config: str, split: str, board_id: str, agent: str, r
     """Worker task: routes one board (seeds 0..rollouts-1, until one is clean) and writes the
     clean board to `target`. Returns the result: status `routed` (seed, sha256), else
     `not_completed` or `engine_failure` with the reason; always the environment id."""
-    from pcbdata.agents.rollout import make_agent, run_episode, worker_env
+    from pcbdata.agents.registry import make_agent
     from pcbdata.core.fsutil import owned_temp_folder, write_atomic
     from pcbdata.core.hashing import sha256_bytes
     from pcbdata.core.tree import BOARD_FILE, board_dir
     from pcbdata.env.registry import env_id_for
+    from pcbdata.runners.rollout import run_episode, worker_env
 
     env_kwargs = {"id": env_id_for(config), "config": config, "root": root, "split": split,
                   **env_options}
