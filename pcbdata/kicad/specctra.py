@@ -60,8 +60,8 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
                 exact_pads: bool = False) -> dict:
     """Exports the board as DSN, runs `command` on it, imports the SES and saves the routed
     board to `out_path`. `fix_resolution`, `flip_back`, `plan_for_vias` and `exact_pads` work
-    around freeroute defects (see `fix_ses_resolution`, `pcbdata.core.specctra_text` and
-    `pcbdata.core.specctra_pads`).
+    around freeroute defects (see `fix_ses_resolution`, `pcbdata.kicad.specctra_text` and
+    `pcbdata.kicad.specctra_pads`).
     Returns {ok, reason, seconds, router_seconds, router_cpu_seconds, tracks, vias}."""
     pcbnew = _pcbnew()
     start = time.perf_counter()
@@ -101,7 +101,7 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
             with open(ses, "wb") as handle:
                 handle.write(fixed)
         if back_refs:
-            from pcbdata.core.specctra_text import restore_back_placements
+            from pcbdata.kicad.specctra_text import restore_back_placements
 
             with open(ses, encoding="utf-8") as handle:
                 text = restore_back_placements(handle.read(), back_refs)
@@ -110,7 +110,7 @@ def route_board(board_path: str, instance_dir: str, out_path: str, command: list
         with open(ses, encoding="utf-8", errors="replace") as handle:
             text = strip_ses_placement(handle.read())
         if planning:
-            from pcbdata.core.specctra_text import restore_ses_after_freeroute
+            from pcbdata.kicad.specctra_text import restore_ses_after_freeroute
 
             text = restore_ses_after_freeroute(text, planning)
         with open(ses, "w", encoding="utf-8") as handle:
@@ -137,8 +137,8 @@ def router_dsn(text: str, flip_back: bool, plan_for_vias: bool,
     """KiCad's DSN with the chosen freeroute work-arounds: (text, references flipped from the
     back, what the session needs back after planning for vias). The pads are rewritten last:
     mirrored images turn their pins the other way."""
-    from pcbdata.core.specctra_pads import exact_pads as rewrite_pads
-    from pcbdata.core.specctra_text import flip_back_components, prepare_dsn_for_freeroute
+    from pcbdata.kicad.specctra_pads import exact_pads as rewrite_pads
+    from pcbdata.kicad.specctra_text import flip_back_components, prepare_dsn_for_freeroute
 
     planning: dict = {}
     back_refs: set[str] = set()

@@ -10,7 +10,7 @@ import pytest
 
 from pcbdata.baselines.specctra import FREEROUTE_VARIANTS, freeroute_available
 from pcbdata.cli import main
-from pcbdata.core.specctra_text import (
+from pcbdata.kicad.specctra_text import (
     net_widths,
     prepare_dsn_for_freeroute,
     restore_ses_after_freeroute,

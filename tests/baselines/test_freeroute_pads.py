@@ -12,8 +12,8 @@ import pytest
 import shapely
 
 from pcbdata.core.sexpr_text import block_end
-from pcbdata.core.specctra_pads import exact_pads
-from pcbdata.core.specctra_text import flip_back_components
+from pcbdata.kicad.specctra_pads import exact_pads
+from pcbdata.kicad.specctra_text import flip_back_components
 
 DSN = """(pcb x
   (resolution um 10)

@@ -10,8 +10,8 @@ from boards import base_board, pad, write_instance
 
 from pcbdata.baselines.specctra import freeroute_available
 from pcbdata.cli import main
-from pcbdata.core.specctra_text import flip_back_components, restore_back_placements
 from pcbdata.kicad.specctra import fix_ses_resolution, strip_ses_placement
+from pcbdata.kicad.specctra_text import flip_back_components, restore_back_placements
 from pcbdata.testing.sets import seal_set
 
 DSN = """(pcb x

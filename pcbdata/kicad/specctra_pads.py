@@ -22,7 +22,7 @@ import re
 from dataclasses import dataclass
 
 from pcbdata.core.sexpr_text import block_end
-from pcbdata.core.specctra_text import BACK_SUFFIX, suffixed
+from pcbdata.kicad.specctra_text import BACK_SUFFIX, suffixed
 
 _TOKEN = r'(?:"(?:[^"\\]|\\.)*"|[^\s()]+)'
 _SHAPE = re.compile(r"\(shape\s+\((rect|circle|polygon|path)\s+(" + _TOKEN + r")\s+([^()]*)\)\s*\)")
