@@ -71,8 +71,9 @@ def _outcome(router: dict) -> list[str]:
 def _router_only(config: str, limit: int) -> dict:
     from pcbdata.generators import D2Generator
     from pcbdata.router.geometry import geometry_from_board
+    from pcbdata.router.requests import RouteRequest
     from pcbdata.router.shove import plan
-    from pcbdata.router.walkaround import RouteRequest, WalkaroundRouter
+    from pcbdata.router.walkaround import WalkaroundRouter
     from pcbdata.spec.presets import d2_level
     from pcbdata.testing import d2_routes
 

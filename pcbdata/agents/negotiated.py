@@ -24,17 +24,8 @@ from pcbdata.env.types import (
     START_ROUTE,
     BoardView,
 )
-from pcbdata.router.negotiate import (
-    BUDGET_ROUTES,
-    CAUSES,
-    End,
-    Negotiator,
-    NetRule,
-    Plan,
-    Wire,
-    seeded_order,
-    spanning_connections,
-)
+from pcbdata.router.connections import End, seeded_order, spanning_connections
+from pcbdata.router.negotiate import BUDGET_ROUTES, CAUSES, Negotiator, NetRule, Plan, Wire
 
 
 def _mm(point) -> tuple[float, float]:

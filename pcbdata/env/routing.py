@@ -22,7 +22,7 @@ from pcbdata.env.types import (
 )
 from pcbdata.router import shove
 from pcbdata.router.geometry import CopperItem
-from pcbdata.router.walkaround import RouteRequest, mark_obstacles_path
+from pcbdata.router.requests import RouteRequest, mark_obstacles_path
 
 
 @dataclass

@@ -1,8 +1,9 @@
 """Negotiated routing on plain geometry: every open connection of a board planned at once, with
 rip-up and reroute, before any copper is laid.
 
-Connections: per net, a minimum spanning tree over its pad clusters (Kruskal on the shortest
-pad-to-pad distance between two clusters), routed shortest first. A connection is tried by the
+Connections (`pcbdata.router.connections`): per net, a minimum spanning tree over its pad
+clusters (Kruskal on the shortest pad-to-pad distance between two clusters), routed shortest
+first. A connection is tried by the
 walkaround router (`pcbdata.router.walkaround`) on a layer both ends are on, then through one
 via (ends on different layers), then through two vias (a leg on another layer between two
 vias, for ends on one side whose own layer is blocked); via spots are a ring around each end
@@ -26,7 +27,6 @@ lays it through the environment's free-coordinate actions). Nothing here imports
 """
 from __future__ import annotations
 
-import hashlib
 import math
 from collections import deque
 from dataclasses import dataclass, field, replace
@@ -34,8 +34,11 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import shapely
 
+from pcbdata.router.clearance import HEADINGS, TOLERANCE
+from pcbdata.router.connections import Connection, End
 from pcbdata.router.geometry import BoardGeometry, CopperItem, Point, copper_core
-from pcbdata.router.walkaround import HEADINGS, TOLERANCE, RouteRequest, WalkaroundRouter
+from pcbdata.router.requests import RouteRequest
+from pcbdata.router.walkaround import WalkaroundRouter
 
 #: Route calls a plan may make (the budget), and rip-ups of one connection at most.
 BUDGET_ROUTES = 3000
@@ -53,32 +56,6 @@ GUIDE_TRIES = 6
 #: Rounds after the first, each with the connections left open placed first.
 RESTARTS = 2
 CAUSES = ("boxed_in", "congestion", "budget")
-
-
-@dataclass(frozen=True)
-class End:
-    """One end of a connection: a pad centre, the copper layers it is on, and how far its
-    copper reaches from the centre (for via spots beside it)."""
-
-    x: int
-    y: int
-    layers: tuple[str, ...]
-    reach: int = 0
-
-    @property
-    def at(self) -> Point:
-        return (self.x, self.y)
-
-
-@dataclass(frozen=True)
-class Connection:
-    net: str
-    a: End
-    b: End
-
-    @property
-    def length(self) -> float:
-        return math.hypot(self.a.x - self.b.x, self.a.y - self.b.y)
 
 
 @dataclass(frozen=True)
@@ -117,65 +94,6 @@ class Plan:
     wires: dict[int, Wire]  # by connection index
     open: dict[int, str]  # connection index -> cause (CAUSES)
     stats: dict = field(default_factory=dict)
-
-
-def spanning_connections(pads: list[tuple[str, End, int]]) -> list[Connection]:
-    """Per net, a minimum spanning tree over its pad clusters: `pads` are (net, end, cluster);
-    pads of one cluster are joined already. Edges by the shortest pad-to-pad distance between
-    two clusters (ties by coordinates), shortest first over the whole board."""
-    by_net: dict[str, list[tuple[End, int]]] = {}
-    for net, end, cluster in pads:
-        by_net.setdefault(net, []).append((end, cluster))
-    out: list[Connection] = []
-    for net in sorted(by_net):
-        out += _net_tree(net, by_net[net])
-    return sorted(out, key=lambda c: (c.length, c.net, c.a.at, c.b.at))
-
-
-def seeded_order(connections: list[Connection], seed: int) -> list[Connection]:
-    """The connections shortest first (seed 0), or by length times a seeded factor in [1, 1.5)
-    (other seeds: another order per rollout, from a hash, the same on every machine)."""
-    if seed == 0:
-        return list(connections)
-
-    def key(c: Connection) -> tuple:
-        digest = hashlib.sha256(f"{seed}:{c.net}:{c.a.at}:{c.b.at}".encode()).digest()
-        return (c.length * (1 + 0.5 * int.from_bytes(digest[:8], "big") / 2 ** 64),
-                c.net, c.a.at, c.b.at)
-
-    return sorted(connections, key=key)
-
-
-def _net_tree(net: str, pads: list[tuple[End, int]]) -> list[Connection]:
-    clusters = sorted({c for _, c in pads})
-    if len(clusters) < 2:
-        return []
-    best: dict[tuple[int, int], tuple[float, End, End]] = {}
-    for i, (p, cp) in enumerate(pads):
-        for q, cq in pads[i + 1:]:
-            if cp == cq:
-                continue
-            key = (min(cp, cq), max(cp, cq))
-            d = math.hypot(p.x - q.x, p.y - q.y)
-            ends = (p, q) if (p.x, p.y) <= (q.x, q.y) else (q, p)
-            if key not in best or (d, ends[0].at, ends[1].at) < (best[key][0], best[key][1].at,
-                                                                  best[key][2].at):
-                best[key] = (d, *ends)
-    parent = {c: c for c in clusters}
-
-    def root(c: int) -> int:
-        while parent[c] != c:
-            parent[c] = parent[parent[c]]
-            c = parent[c]
-        return c
-
-    out = []
-    for key, (_, a, b) in sorted(best.items(), key=lambda kv: (kv[1][0], kv[0])):
-        ra, rb = root(key[0]), root(key[1])
-        if ra != rb:
-            parent[ra] = rb
-            out.append(Connection(net, a, b))
-    return out
 
 
 class Negotiator:

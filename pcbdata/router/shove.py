@@ -30,8 +30,10 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import shapely
 
+from pcbdata.router.clearance import HEADINGS, TOLERANCE
 from pcbdata.router.geometry import BoardGeometry, CopperItem, Point, copper_core
-from pcbdata.router.walkaround import HEADINGS, TOLERANCE, RouteRequest, WalkaroundRouter
+from pcbdata.router.requests import RouteRequest
+from pcbdata.router.walkaround import WalkaroundRouter
 
 
 @dataclass(frozen=True)

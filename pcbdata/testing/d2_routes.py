@@ -18,7 +18,8 @@ import shapely
 from pcbdata.generators import D2Generator
 from pcbdata.model.board import Board, Pad, Track, Via
 from pcbdata.router.geometry import geometry_from_board
-from pcbdata.router.walkaround import RouteRequest, WalkaroundRouter
+from pcbdata.router.requests import RouteRequest
+from pcbdata.router.walkaround import WalkaroundRouter
 from pcbdata.spec.presets import d2_level
 
 LAYERS = ("F.Cu", "B.Cu")

@@ -6,14 +6,9 @@ import itertools
 
 import shapely
 
+from pcbdata.router.connections import Connection, End, spanning_connections
 from pcbdata.router.geometry import BoardGeometry, CopperItem, copper_core
-from pcbdata.router.negotiate import (
-    Connection,
-    End,
-    Negotiator,
-    NetRule,
-    spanning_connections,
-)
+from pcbdata.router.negotiate import Negotiator, NetRule
 
 MM = 1_000_000
 LAYERS = ("F.Cu",)
@@ -123,7 +118,7 @@ def test_boxed_in_end_is_named():
 
 
 def test_seeded_orders_differ_and_repeat():
-    from pcbdata.router.negotiate import seeded_order
+    from pcbdata.router.connections import seeded_order
 
     ends = [End(mm(x), mm(y), LAYERS) for x, y in ((0, 0), (1, 0), (0, 5), (2, 5), (9, 9),
                                                   (9, 10.5), (4, 4), (6, 4.5))]

@@ -6,8 +6,8 @@ import math
 import numpy as np
 import shapely
 
+from pcbdata.router.clearance import HEADINGS
 from pcbdata.router.ray_screen import CapsuleScreen, core_pieces
-from pcbdata.router.walkaround import HEADINGS
 
 
 def _cores(rng: np.random.Generator) -> list[shapely.Geometry]:

@@ -10,7 +10,8 @@ from pathlib import Path
 import numpy as np
 
 from pcbdata.router.geometry import CopperItem, bends, octilinear_length
-from pcbdata.router.walkaround import WalkaroundRouter, _link_segments, _LinkBatch, _Search
+from pcbdata.router.search import _link_segments, _LinkBatch, _Search
+from pcbdata.router.walkaround import WalkaroundRouter
 from tests.router.test_walkaround import MM, _pillar_maze, assert_legal, board, pad, request, wall
 
 BASELINE = Path(__file__).parent / "data" / "d2_paths_5a7faa8.json"

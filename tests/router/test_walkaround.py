@@ -17,7 +17,8 @@ from pcbdata.router.geometry import (
     one_bend_paths,
     simplify_path,
 )
-from pcbdata.router.walkaround import RouteRequest, WalkaroundRouter, mark_obstacles_path
+from pcbdata.router.requests import RouteRequest, mark_obstacles_path
+from pcbdata.router.walkaround import WalkaroundRouter
 
 MM = 1_000_000
 WIDTH, CLEARANCE, EDGE = 200_000, 200_000, 500_000

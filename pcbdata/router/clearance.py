@@ -1,0 +1,268 @@
+"""Clearance rules on one copper layer: items' exact shapes prepared for distance tests, the
+layer's index of them, the rules a request keeps (`_Rules`: violations of segments, the ray
+screen's bounds) and the board's region and edges. Shared by the walkaround router and its
+search (`pcbdata.router.walkaround`, `pcbdata.router.search`)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import shapely
+
+from pcbdata.router.ray_screen import CapsuleScreen, core_pieces
+
+TOLERANCE = 1e-3  # nm: float rounding of distances (see the module doc); no margin is added
+_ROOT2 = math.sqrt(2)
+# Outward normals of the octagon's sides, counter-clockwise from +x.
+_NORMALS = np.array([(math.cos(k * math.pi / 4), math.sin(k * math.pi / 4)) for k in range(8)])
+# Corner k of an octagon is where side k meets side k+1: p = inverse(normals) @ (h_k, h_k+1).
+_CORNER_SOLVERS = np.array(
+    [np.linalg.inv(np.stack([_NORMALS[k], _NORMALS[(k + 1) % 8]])) for k in range(8)]
+)
+# Corner k lies between normals k and k+1; rounding it by these signs moves it away from both.
+_CORNER_SIGNS = np.sign(
+    [(math.cos((k + 0.5) * math.pi / 4), math.sin((k + 0.5) * math.pi / 4)) for k in range(8)]
+)
+_EDGE = "edge"
+# Up to this many (segment, obstacle) pairs are screened all at once; more go through the
+# layer's R-tree first.
+_DENSE_PAIRS = 20_000
+# Unit vectors of the eight octilinear headings (index k: k * 45 degrees) and the index of a
+# heading given as a pair of signs, at [sx + 1, sy + 1].
+HEADINGS = _NORMALS
+_HEADING_INDEX = np.array([[5, 4, 3], [6, -1, 2], [7, 0, 1]])
+# Keep-outs for the ray screen (see `_Rules.free`): the allowed distance less this much (nm),
+# so whatever they touch violates the clearance beyond float doubt.
+_SCREEN_SHRINK = 1.0
+
+
+# --- obstacles -------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Prepared:
+    """Per-item data that does not depend on the request; cached across `update` calls."""
+
+    core: shapely.Geometry
+    radius: float
+    support: tuple[float, ...]  # max of normal_k . p over the core, k = 0..7
+    inner: tuple[float, float]  # a point of the core
+    convex: bool
+
+    @cached_property
+    def pieces(self) -> np.ndarray:
+        """(k, 2, 2): the core's straight pieces, for the ray screen (only large searches
+        use it, hence on demand)."""
+        return core_pieces(self.core)
+
+
+def _prepare(core: shapely.Geometry, radius: float) -> _Prepared:
+    coords = shapely.get_coordinates(core)
+    support = tuple(float(s) for s in (coords @ _NORMALS.T).max(axis=0))
+    inner = shapely.get_coordinates(shapely.point_on_surface(core))[0]
+    convex = not isinstance(core, shapely.Polygon) or core.area >= 0.999 * core.convex_hull.area
+    return _Prepared(core, radius, support, (float(inner[0]), float(inner[1])), convex)
+
+
+class _Layer:
+    """Obstacles on one copper layer (items and board-edge segments) as parallel arrays."""
+
+    def __init__(self, records: list[tuple[str, str, int, _Prepared]]):
+        # records: (kind, net, clearance, prepared); net "" and edges are obstacles to every net.
+        # Net codes are the layer's own, so that a layer depends on its records alone.
+        nets = sorted({r[1] for r in records} - {""})
+        net_codes = {"": 0, **{net: i for i, net in enumerate(nets, start=1)}}
+        self.net_codes = net_codes
+        self.kind = [r[0] for r in records]
+        self.net = [r[1] for r in records]
+        self.code = np.array(
+            [-1 if r[0] == _EDGE else net_codes[r[1]] for r in records], dtype=np.int64
+        )
+        self.is_edge = np.array([r[0] == _EDGE for r in records], dtype=bool)
+        self.clearance = np.array([r[2] for r in records], dtype=float)
+        prepared = [r[3] for r in records]
+        self.cores = np.array([p.core for p in prepared], dtype=object)
+        self.radius = np.array([p.radius for p in prepared], dtype=float)
+        self.support = np.array([p.support for p in prepared], dtype=float).reshape(-1, 8)
+        self.inner = np.array([p.inner for p in prepared], dtype=float).reshape(-1, 2)
+        self.convex = np.array([p.convex for p in prepared], dtype=bool)
+        self.tree = shapely.STRtree(self.cores)
+        self._prepared = prepared
+
+    @cached_property
+    def pieces(self) -> tuple[np.ndarray, np.ndarray]:
+        """Every item's straight pieces (k, 2, 2) and the item each belongs to."""
+        pieces = [p.pieces for p in self._prepared]
+        owner = np.repeat(np.arange(len(pieces)), [len(p) for p in pieces])
+        return np.concatenate(pieces or [np.empty((0, 2, 2))]), owner
+
+    def describe(self, index: int) -> str:
+        if self.kind[index] == _EDGE:
+            return "the board edge"
+        net = self.net[index]
+        return f"a {self.kind[index]} of net {net!r}" if net else f"a no-net {self.kind[index]}"
+
+
+class _Rules:
+    """One request's view of a layer: which items are obstacles and how far to stay away.
+
+    `need` is the smallest allowed distance from our centreline to an item's core. The
+    octagon `reach` (support + need in the 8 directions) contains everything closer, so a
+    segment wholly beyond one of its sides is clear without an exact test.
+    """
+
+    def __init__(
+        self,
+        layer: _Layer,
+        net_code: int,
+        half_width: float,
+        clearance: float,
+        edge_clearance: float,
+    ):
+        self.layer = layer
+        self.half_width = half_width
+        obstacle = layer.is_edge | (layer.code <= 0) | (layer.code != net_code)
+        gap = np.where(layer.is_edge, edge_clearance, np.maximum(clearance, layer.clearance))
+        need = layer.radius + half_width + gap - TOLERANCE
+        # Indexed by layer item; items of our own net get an empty reach (never checked).
+        self.obstacle = obstacle
+        self.need = np.where(obstacle, need, -np.inf)
+        self.reach = layer.support + self.need[:, None]
+        self.max_need = float(need[obstacle].max()) if obstacle.any() else 0.0
+        self.obstacles = int(obstacle.sum())
+        self._obstacle_items = np.flatnonzero(obstacle)
+        self._obstacle_reach = self.reach[self._obstacle_items]
+        self._screen: CapsuleScreen | None = None
+        # Kept for later searches under the same rules (see `WalkaroundRouter._rules`): the
+        # search's corner nodes and ray bounds by (x, y, heading).
+        self.corners: np.ndarray | None = None
+        self.rays: dict[tuple[int, int, int], float] = {}
+        self.ray_reach = 0.0
+        self.layer_name = ""  # the layer these rules are for (`WalkaroundRouter._seed_rays`)
+
+    def free(self, points: np.ndarray, headings: np.ndarray, length: float) -> np.ndarray:
+        """How far a track may run from each point along its heading (index into `HEADINGS`)
+        at most: beyond it the track certainly violates clearance; up to it, it may or may not.
+
+        The bound is where the ray enters a keep-out drawn inside the true one (see
+        `_SCREEN_SHRINK`), so a segment longer than it fails for sure: the search uses it to
+        skip the exact test of links that cannot be clear. `length`: the rays' reach (nm)."""
+        screen = self._capsules()
+        out = np.full(len(points), np.inf)
+        if not len(screen):
+            return out
+        # Short rays first: most meet a keep-out soon, and a short ray meets few.
+        todo, reach = np.arange(len(points)), min(length, 4 * self.max_need)
+        while len(todo):
+            out[todo] = screen.entries(points[todo], HEADINGS[headings[todo]], reach)
+            if reach >= length:
+                break
+            todo, reach = todo[np.isinf(out[todo])], min(length, 4 * reach)
+        return out
+
+    def _capsules(self) -> CapsuleScreen:
+        if self._screen is None:
+            pieces, owner = self.layer.pieces
+            radius = self.need[owner] - _SCREEN_SHRINK
+            keep = self.obstacle[owner] & (radius > 0)
+            self._screen = CapsuleScreen(pieces[keep], radius[keep])
+        return self._screen
+
+    def violations(self, segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(segment, item) pairs closer than allowed, at least one per failing segment.
+
+        segments: (k, 2, 2) float; a zero-length segment checks a dot of our width.
+        """
+        seg, item = self._near_pairs(segments)
+        need = self.need[item]
+        # Within reach of a point of the core: violating.
+        hit = _point_segment_distance(self.layer.inner[item], segments[seg]) < need
+        known = np.zeros(len(segments), dtype=bool)
+        known[seg[hit]] = True
+        bad_seg, bad_item = [seg[hit]], [item[hit]]
+        # The rest: exact distance, for segments not already known to violate.
+        unsure = ~hit & ~known[seg]
+        if unsure.any():
+            lines = _lines(segments[seg[unsure]])
+            exact = shapely.distance(lines, self.layer.cores[item[unsure]]) < need[unsure]
+            bad_seg.append(seg[unsure][exact])
+            bad_item.append(item[unsure][exact])
+        return np.concatenate(bad_seg), np.concatenate(bad_item)
+
+    def _near_pairs(self, segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(segment, obstacle) pairs that no side of the obstacle's octagon separates."""
+        obstacles = self._obstacle_items
+        if not len(segments) or not len(obstacles):
+            return np.empty(0, dtype=np.int64), np.empty(0, dtype=np.int64)
+        lowest = (segments @ _NORMALS.T).min(axis=1)  # (k, 8)
+        if len(segments) * len(obstacles) <= _DENSE_PAIRS:
+            near = ~(lowest[:, None, :] >= self._obstacle_reach[None]).any(axis=2)
+            seg, j = np.nonzero(near)
+            return seg, obstacles[j]
+        lo, hi = segments.min(axis=1) - self.max_need, segments.max(axis=1) + self.max_need
+        seg, item = self.layer.tree.query(shapely.box(lo[:, 0], lo[:, 1], hi[:, 0], hi[:, 1]))
+        keep = self.obstacle[item]
+        seg, item = seg[keep], item[keep]
+        near = ~(lowest[seg] >= self.reach[item]).any(axis=1)
+        return seg[near], item[near]
+
+    def failing(self, segments: np.ndarray) -> np.ndarray:
+        """Whether each segment (k, 2, 2) violates clearance."""
+        bad = np.zeros(len(segments), dtype=bool)
+        bad[self.violations(segments)[0]] = True
+        return bad
+
+
+def _point_segment_distance(points: np.ndarray, segments: np.ndarray) -> np.ndarray:
+    """Distance from each point (p, 2) to its segment (p, 2, 2)."""
+    a, ab = segments[:, 0], segments[:, 1] - segments[:, 0]
+    ap = points - a
+    length2 = np.maximum((ab * ab).sum(axis=1), 1e-12)
+    t = np.clip((ap * ab).sum(axis=1) / length2, 0.0, 1.0)
+    return np.hypot(*(ap - t[:, None] * ab).T)
+
+
+def _lines(segments: np.ndarray) -> np.ndarray:
+    """Shapely geometries of (k, 2, 2) segments; a zero-length segment becomes a point."""
+    lines = shapely.linestrings(segments)
+    dots = np.all(segments[:, 0] == segments[:, 1], axis=1)
+    if dots.any():
+        lines[dots] = shapely.points(segments[dots, 0])
+    return lines
+
+
+def _segments(path) -> np.ndarray:
+    pts = np.asarray(path, dtype=float)
+    return np.stack([pts[:-1], pts[1:]], axis=1) if len(pts) > 1 else pts[None, [0, 0]]
+
+
+# --- the router ------------------------------------------------------------------------------
+
+
+def _round_outwards(points: np.ndarray, signs: np.ndarray) -> np.ndarray:
+    """Rounds each coordinate to an integer in the direction of its sign (0: nearest). A
+    value within a few `TOLERANCE` of an integer is that integer: a side at an exact integer
+    sits `TOLERANCE` short of it in floats."""
+    near = np.round(points)
+    snapped = np.abs(points - near) <= 4 * TOLERANCE
+    out = np.where(signs > 0, np.ceil(points), np.where(signs < 0, np.floor(points), near))
+    return np.where(snapped, near, out)
+
+
+def _board_region(outline) -> tuple[shapely.Geometry | None, list[shapely.Geometry]]:
+    """The board area (rings inside the first are cut-outs, others add area) and its edges."""
+    if not outline:
+        return None, []
+    region = shapely.make_valid(shapely.Polygon(outline[0]))
+    for ring in outline[1:]:
+        shape = shapely.make_valid(shapely.Polygon(ring))
+        region = region.difference(shape) if region.contains(shape) else region.union(shape)
+    edges = []
+    for ring in outline:
+        for a, b in zip(ring, ring[1:] + ring[:1]):
+            if tuple(a) != tuple(b):
+                edges.append(shapely.LineString([a, b]))
+    shapely.prepare(region)  # many containment tests follow
+    return region, edges
