@@ -236,16 +236,25 @@ AUC_TARGET = 0.65
 
 
 def _features(stats: list[BoardStatistics]) -> list[list[float]]:
-    return [[float(getattr(s, name)) for name in STATISTICS] for s in stats]
+    """One row per board: the seven statistics, pads per net as the board's mean, undefined
+    values (no closed outline, no multi-pad part) as NaN, which the classifier takes."""
+    def value(s: BoardStatistics, name: str) -> float:
+        v = getattr(s, name)
+        if isinstance(v, tuple):
+            return sum(v) / len(v) if v else math.nan
+        return math.nan if v is None else float(v)
+
+    return [[value(s, name) for name in STATISTICS] for s in stats]
 
 
 def classifier_auc(real: list[BoardStatistics], ours: list[BoardStatistics],
                    seed: int = 0) -> tuple[float, dict[str, float]]:
-    """10-fold cross-validated ROC AUC of a gradient-boosted classifier telling `real` from
-    `ours` (equal sizes) over the seven statistics, and each statistic's permutation
+    """10-fold cross-validated ROC AUC of a gradient-boosted classifier (scikit-learn's
+    histogram one, which takes undefined values) telling `real` from `ours` (equal sizes) over
+    the seven statistics, and each statistic's permutation
     importance (mean AUC drop) on the folds' held-out parts. Needs scikit-learn."""
     try:
-        from sklearn.ensemble import GradientBoostingClassifier
+        from sklearn.ensemble import HistGradientBoostingClassifier
         from sklearn.inspection import permutation_importance
         from sklearn.model_selection import StratifiedKFold
     except ImportError as exc:  # an optional extra: the package's core does not need it
@@ -260,7 +269,7 @@ def classifier_auc(real: list[BoardStatistics], ours: list[BoardStatistics],
     from sklearn.metrics import roc_auc_score
 
     for train, test in folds.split(x, y):
-        model = GradientBoostingClassifier(random_state=seed).fit(x[train], y[train])
+        model = HistGradientBoostingClassifier(random_state=seed).fit(x[train], y[train])
         scores.append(roc_auc_score(y[test], model.predict_proba(x[test])[:, 1]))
         drop = permutation_importance(model, x[test], y[test], scoring="roc_auc",
                                       n_repeats=5, random_state=seed)
