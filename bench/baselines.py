@@ -83,7 +83,8 @@ def run(args) -> Path:
                                     str(k), "--drc", args.drc, "--out", str(runs), "--workers",
                                     str(args.workers)))
         commands.append(pcbdata("eval", *common, "--runs", str(runs), "--k", str(k), "--out",
-                                str(report), "--workers", str(args.eval_workers)))
+                                str(report), "--workers", str(args.eval_workers),
+                                "--name", args.method))
     summary = json.loads((report / "summary.json").read_text())
     times = _times(runs) if runs.is_dir() else []
     record = {
@@ -116,7 +117,10 @@ def collect(args) -> None:
         record = json.loads(path.read_text())
         work = Path(args.work) / path.stem
         eval_command = next(c for c in record["commands"] if c.startswith("pcbdata eval"))
-        pcbdata(*eval_command.split()[1:])
+        words = eval_command.split()[1:]
+        if "--name" not in words and "--reference" not in words:
+            words += ["--name", record["method"]]
+        pcbdata(*words)
         report = work / "report" / "results.json"
         if not report.is_file():
             print(f"{path.name}: no results.json in {report.parent}", file=sys.stderr)
