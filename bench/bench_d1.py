@@ -39,7 +39,7 @@ def _write(root: Path, config: str, limit: int) -> None:
 def _walled_boards(config: str, limit: int) -> int:
     """Boards with a net that no agent can join (a pad walled in by other pads)."""
     from pcbdata.agents.d1 import D1Grid
-    from pcbdata.spec.configs import get_config
+    from pcbdata.sets.configs import get_config
 
     spec = get_config(config)
     generator, count = spec.generator(), 0

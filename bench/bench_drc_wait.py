@@ -54,10 +54,10 @@ def cli(*args: str) -> None:
 
 
 def tracked_d2(work: Path) -> list[str]:
-    from pcbdata.generators import D2Generator
-    from pcbdata.spec.presets import d2_level
+    from pcbdata.generators.d2 import D2Generator
+    from pcbdata.sets.presets import level
 
-    level = d2_level("default")
+    level = level("d2", "default")
     generator = D2Generator(level.params)
     return [str(write_board(work / "tracked" / f"board_{i:05d}",
                             with_straight_tracks(generator.generate(level.seed, "test", i).board)))

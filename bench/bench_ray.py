@@ -40,7 +40,7 @@ os.environ.setdefault("RAY_USAGE_STATS_ENABLED", "0")
 
 from _measure import machine  # noqa: E402
 
-from pcbdata.builders import SyntheticOptions, build_d2  # noqa: E402
+from pcbdata.build import SyntheticOptions, build_level  # noqa: E402
 from pcbdata.executors import LOCAL, RayExecutor  # noqa: E402
 
 REPORT_FILES = ("per_rollout.csv", "per_board.csv", "summary.json", "summary.md")
@@ -67,13 +67,13 @@ def empty_tasks(executor, workers: int, count: int) -> dict:
 def build(out: Path, executor, workers: int, boards: int) -> dict:
     options = SyntheticOptions(splits=["train"], count=boards, workers=workers, publish=False,
                                log=lambda line: None, executor=executor)
-    summary, wall, cpu = timed(lambda: build_d2(out, options=options))
+    summary, wall, cpu = timed(lambda: build_level(out, "d2", options=options))
     return {"boards": boards, "checked": summary.checked, "seconds": wall, "driver_cpu": cpu}
 
 
 def make_rollouts(root: Path, runs: Path, boards: int) -> int:
     from pcbdata.model.kicad_writer import board_files
-    from pcbdata.spec.configs import get_config
+    from pcbdata.sets.configs import get_config
     from pcbdata.testing.drc import with_straight_tracks
 
     spec = get_config("d2")
@@ -166,7 +166,7 @@ IDLE_STEPS = 100
 def rollout_parts(figures: dict, parts: set[str], tmp_path: Path, on_ray, cores: int,
                   boards: int) -> None:
     root = tmp_path / "rollout-set"
-    build_d2(root, options=SyntheticOptions(splits=["test"], count=boards, workers=cores,
+    build_level(root, "d2", options=SyntheticOptions(splits=["test"], count=boards, workers=cores,
                                             publish=False, log=lambda line: None))
     figures["rollout_boards"] = boards
     if "rollout" in parts:
@@ -248,7 +248,7 @@ def build_part(figures: dict, tmp_path: Path, on_ray, cores: int, boards: int) -
 
 def eval_part(figures: dict, tmp_path: Path, on_ray, cores: int, boards: int) -> None:
     root, runs = tmp_path / "set", tmp_path / "runs"
-    build_d2(root, options=SyntheticOptions(splits=["test"], count=boards, workers=cores,
+    build_level(root, "d2", options=SyntheticOptions(splits=["test"], count=boards, workers=cores,
                                             publish=False, log=lambda line: None))
     figures["rollouts"] = make_rollouts(root, runs, boards)
     figures["eval_boards"] = boards

@@ -8,7 +8,7 @@
     python bench/bench_realism.py --d3 D3_DIR --synthetic SET_DIR --config d2r-a --tier A
         --half extended --pcbench PCBENCH_DIR [--external-work DIR]
 
-Both sides are measured from the board files (`pcbdata.synthetic.board_statistics`). A tier's
+Both sides are measured from the board files (`pcbdata.realism.statistics`). A tier's
 rows are its boards in `characteristics.csv` order (the table order: pads, nets, components,
 name); row number = the 1-based position among that tier's rows. Odd row numbers are the
 calibration half (what a generator may be tuned on, `--write-targets`), even ones the
@@ -18,7 +18,7 @@ not move boards between them. Each distance is shown against SPEC 2b's bound, ma
 critical value of the two sample sizes); `--classifier` adds the joint test (ROC AUC of a
 gradient-boosted classifier, target 0.65, with the real-half-against-real-half noise floor).
 With `--pcbench`, the calibration side may add the PCBench boards of the tier's size that D3's
-revalidation dropped (`--half extended`, `pcbdata.synthetic.external_boards`): more real
+revalidation dropped (`--half extended`, `pcbdata.realism.external`): more real
 boards to fit on, none of the held-out half.
 """
 from __future__ import annotations
@@ -37,7 +37,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import machine  # noqa: E402
 
 from pcbdata.core import tree  # noqa: E402
-from pcbdata.synthetic.board_statistics import (  # noqa: E402
+from pcbdata.realism.external import external_samples  # noqa: E402
+from pcbdata.realism.noise import (  # noqa: E402
+    NoiseFloor,
+    calibration_copy_distances,
+    perfect_generator_distances,
+)
+from pcbdata.realism.statistics import (  # noqa: E402
     NET_SHAPES,
     PER_NET,
     STATISTICS,
@@ -47,12 +53,6 @@ from pcbdata.synthetic.board_statistics import (  # noqa: E402
     pooled_samples,
     summary,
     weighted_samples,
-)
-from pcbdata.synthetic.external_boards import external_samples  # noqa: E402
-from pcbdata.synthetic.sampling_noise import (  # noqa: E402
-    NoiseFloor,
-    calibration_copy_distances,
-    perfect_generator_distances,
 )
 
 TIERS = ("A", "B", "C")
@@ -170,11 +170,11 @@ def _definitions() -> dict:
                     "(DRC errors or unconnected items) whose terminal pads lie in the tier's "
                     "range, measured on KiCad 9's save of them, each with the weight that "
                     "gives them the calibration half's pads distribution (name -> weight; "
-                    "pcbdata.synthetic.external_boards)",
+                    "pcbdata.realism.external)",
         "measure": "python bench/bench_realism.py --d3 D3_DIR --synthetic SET_DIR "
                    "--config d2r-b --tier B --split train [--limit 512] [--md T.md]: the KS "
                    "table vs the held-out half (the library side is "
-                   "pcbdata.synthetic.board_statistics: board_statistics(path) -> the seven "
+                   "pcbdata.realism.statistics: board_statistics(path) -> the seven "
                    "statistics of one board file, pooled_samples, ks_distance)",
     }
 
@@ -311,7 +311,7 @@ def _critical(n: int, m: int) -> float | None:
     return round(1.358 * math.sqrt((n + m) / (n * m)), 3) if n and m else None
 
 
-# --- noise: the distances sampling alone gives (pcbdata.synthetic.sampling_noise) ---------
+# --- noise: the distances sampling alone gives (pcbdata.realism.noise) ---------
 
 def noise_table(d3_root: Path, tiers: list[str], draws: int) -> dict:
     """Per tier: a copy of the calibration half over random pads-interleaved splits and over
@@ -582,7 +582,7 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--noise", action="store_true",
                         help="the distances sampling alone gives on each tier: a copy of the "
                              "calibration half, and a generator drawing from the tier itself "
-                             "(pcbdata.synthetic.sampling_noise)")
+                             "(pcbdata.realism.noise)")
     parser.add_argument("--draws", type=int, default=1000, help="simulated draws (--noise)")
     parser.add_argument("--write-targets", metavar="PATH",
                         help="only write each tier's calibration-half summary (JSON)")

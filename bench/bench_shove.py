@@ -69,15 +69,15 @@ def _outcome(router: dict) -> list[str]:
 
 
 def _router_only(config: str, limit: int) -> dict:
-    from pcbdata.generators import D2Generator
+    from pcbdata.generators.d2 import D2Generator
     from pcbdata.router.geometry import geometry_from_board
     from pcbdata.router.requests import RouteRequest
     from pcbdata.router.shove import plan
     from pcbdata.router.walkaround import WalkaroundRouter
-    from pcbdata.spec.presets import d2_level
+    from pcbdata.sets.presets import level
     from pcbdata.testing import d2_routes
 
-    level = d2_level(config.removeprefix("d2-") if config != "d2" else "default")
+    level = level("d2", config.removeprefix("d2-") if config != "d2" else "default")
     generator = D2Generator(level.params)
     counts: Counter = Counter()
     for index in range(limit):

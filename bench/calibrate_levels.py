@@ -23,10 +23,10 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import machine  # noqa: E402
 
-from pcbdata.baselines.routing import route_set  # noqa: E402
+from pcbdata.baselines.route import route_set  # noqa: E402
 from pcbdata.cli import main as cli  # noqa: E402
 from pcbdata.evaluator.runs import evaluate_set  # noqa: E402
-from pcbdata.spec.configs import registry  # noqa: E402
+from pcbdata.sets.configs import registry  # noqa: E402
 
 
 def level_row(root: Path, config: str, router: str, boards: int, rollouts: int,

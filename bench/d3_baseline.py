@@ -58,7 +58,7 @@ def main() -> None:
     parser.add_argument("--source", required=True)
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.sets.recipe import load_recipe
 
     compat = load_recipe()["compat"]
     folders = sorted(p for p in (Path(args.source) / "PCBs").iterdir()

@@ -31,7 +31,7 @@ MISSING = 7
 
 def facts(root: Path) -> list[tuple[str, bool, str]]:
     """(fact, holds, what was found) for every published fact."""
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.sets.recipe import load_recipe
 
     manifest = json.loads((root / "manifest.json").read_text(encoding="utf-8"))
     report = json.loads((root / "curation_report.json").read_text(encoding="utf-8"))

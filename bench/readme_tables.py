@@ -70,16 +70,16 @@ def route_prefix(root: Path, config: str, runs: Path, workers: int) -> None:
     """@1 as before the fixes: the same rollout-0 engine options, without via planning and
     boundary inset (`plan_for_vias=False`); resolution and back-side fixes kept as they were."""
     sys.path.insert(0, str(REPO))
-    from pcbdata.baselines import routing, specctra
+    from pcbdata.baselines import route, specctra
 
     def old_plans(router, router_cmd, rollouts, router_timeout):
         argv, _, label = specctra.router_command("freeroute", None, 0)
-        return [routing.RolloutPlan(specctra.ROUTE, (argv, router_timeout, True, True, False),
+        return [route.RolloutPlan(specctra.ROUTE, (argv, router_timeout, True, True, False),
                                     label + " (pre-fix: no via planning, no inset)",
                                     specctra.freeroute_version())]
 
-    routing.rollout_plans = old_plans
-    routing.route_set(root, config, "test", runs, rollouts=1, workers=workers)
+    route.rollout_plans = old_plans
+    route.route_set(root, config, "test", runs, rollouts=1, workers=workers)
 
 
 def evaluate(root: Path, config: str, report: Path, k: int, runs: Path | None,

@@ -65,7 +65,7 @@ def kicad_pool():
 
 def _subset(checkout: Path) -> list[str]:
     from pcbdata.curation.corpus import read_routing
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.sets.recipe import load_recipe
 
     sizes = []
     for folder in sorted((checkout / "PCBs").iterdir()):
@@ -91,8 +91,8 @@ def build_from_snapshot(root: Path, names: list[str], kicad_pool, why: str) -> t
         from tests.helpers import skip_without_snapshot
         skip_without_snapshot(f"{why}: built from the PCBench snapshot at {SHARED_PCBENCH}, "
                               f"absent on this machine")
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.build.d3 import build
+    from pcbdata.sets.recipe import load_recipe
 
     source = root / "pcbench"
     source.mkdir()
@@ -130,8 +130,8 @@ def _run_wide_temp(tmp_path_factory) -> Path:
 
 
 def _build_real_subset(root: Path, kicad_pool) -> None:
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.build.d3 import build
+    from pcbdata.sets.recipe import load_recipe
 
     full = root / "full"
     for leftover in ("full", "subset", "out"):  # of a worker that failed building it

@@ -3,14 +3,15 @@ coupling, and names resolve (or fail with the closest known one)."""
 import pytest
 
 from pcbdata.core.errors import UserError
-from pcbdata.spec.configs import get_config, registry
-from pcbdata.spec.presets import d1_preset, d2_levels
+from pcbdata.sets.configs import get_config, registry
+from pcbdata.sets.presets import d1_preset
+from pcbdata.sets.presets import levels as preset_levels
 
 
 def test_registry_lists_every_preset_grid_level_and_tier():
     names = set(registry())
     assert {f"d1-g{g}" for g in d1_preset().grid_sizes} <= names
-    levels = {"d2" if n == "default" else f"d2-{n}" for n in d2_levels()}
+    levels = {"d2" if n == "default" else f"d2-{n}" for n in preset_levels("d2")}
     assert levels <= names
     assert {"d3-a", "d3-b", "d3-c"} <= names
 
@@ -36,7 +37,7 @@ def test_any_d1_grid_resolves_and_unknown_names_suggest():
 
 
 def test_every_synthetic_config_makes_a_generator_of_the_protocol():
-    from pcbdata.generators import Generator, SplitArrays
+    from pcbdata.generators.base import Generator, SplitArrays
 
     for spec in registry().values():
         if not spec.synthetic:
@@ -48,19 +49,19 @@ def test_every_synthetic_config_makes_a_generator_of_the_protocol():
 
 
 def test_a_level_with_overrides_is_a_custom_config_generated_from_its_parameters():
-    from pcbdata.spec.configs import d2_config
+    from pcbdata.sets.configs import level_config
 
-    spec = d2_config("hard", {"min_pad_spacing_mm": 3.6})
+    spec = level_config("d2", "hard", {"min_pad_spacing_mm": 3.6})
     assert spec.name.startswith("d2-hard-custom-") and len(spec.name) == len("d2-hard-custom-") + 8
     assert spec.parameters["min_pad_spacing_mm"] == 3.6
     assert spec.manifest["overrides"] == {"min_pad_spacing_mm": 3.6}
     assert spec.generator().params.min_pad_spacing_mm == 3.6
-    assert d2_config("hard", {"min_pad_spacing_mm": 3.6}).name == spec.name
-    assert d2_config("hard").name == "d2-hard"
+    assert level_config("d2", "hard", {"min_pad_spacing_mm": 3.6}).name == spec.name
+    assert level_config("d2", "hard").name == "d2-hard"
 
 
 def test_names_are_ordered_by_family_then_grid():
-    from pcbdata.spec.configs import family_of, order_key
+    from pcbdata.sets.configs import family_of, order_key
 
     names = ["d3-b", "d1-g500", "x", "d2-hard", "d1-g50-random-walk", "d1-g50", "d2", "d3-a"]
     assert sorted(names, key=order_key) == ["d2", "d2-hard", "d1-g50", "d1-g50-random-walk",

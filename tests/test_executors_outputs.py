@@ -20,9 +20,9 @@ def _files(root: Path) -> dict[str, bytes]:
 
 
 def _build(out: Path, executor) -> dict[str, bytes]:
-    from pcbdata.builders import SyntheticOptions, build_d2
+    from pcbdata.build import SyntheticOptions, build_level
 
-    build_d2(out, options=SyntheticOptions(splits=["test"], count=3, workers=2,
+    build_level(out, "d2", options=SyntheticOptions(splits=["test"], count=3, workers=2,
                                            log=lambda line: None, executor=executor))
     return _files(out)
 
@@ -31,7 +31,7 @@ def _rollouts(root: Path, runs: Path) -> None:
     """Two rollouts per board (straight tracks: shorts, clearance and unconnected items) and
     one cut file (a parse failure found before KiCad)."""
     from pcbdata.model.kicad_writer import board_files
-    from pcbdata.spec.configs import get_config
+    from pcbdata.sets.configs import get_config
 
     generator = get_config("d2").generator()
     for index in range(3):

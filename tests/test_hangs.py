@@ -119,8 +119,8 @@ def test_eval_caches_a_time_out_under_its_limits(one_board_set, tmp_path, capsys
 
 
 def test_d3_build_gives_a_cut_board_its_load_failure_without_kicad(tmp_path):
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.build.d3 import build
+    from pcbdata.sets.recipe import load_recipe
     from tests.curation.corpus_fixture import fixture_recipe, make_corpus
 
     make_corpus(tmp_path / "corpus")

@@ -113,9 +113,9 @@ def test_two_builds_of_different_splits_into_one_folder_both_land(tmp_path):
 def test_another_builds_writability_probe_is_not_content(tmp_path):
     """Two builds started together: the first proves the new folder writable with a probe file
     that the second must not take for foreign content (the cause of a refused second build)."""
+    from pcbdata.build.synthetic import check_root
     from pcbdata.core.errors import UserError
     from pcbdata.core.fsutil import PROBE_PREFIX
-    from pcbdata.synthetic.build import check_root
 
     out = tmp_path / "set"
     out.mkdir()

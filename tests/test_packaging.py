@@ -14,7 +14,7 @@ def test_every_subpackage_is_listed_in_pyproject():
 
 
 def test_presets_are_readable_as_package_data():
-    from pcbdata.spec.presets import d1_preset, d2_level
+    from pcbdata.sets.presets import d1_preset, level
 
     assert d1_preset().grid_sizes == (10, 50, 100, 200, 500)
-    assert d2_level("default").version
+    assert level("d2", "default").version

@@ -8,7 +8,7 @@ DSN and writes SES can be plugged in with `--router-cmd`, e.g.
 
 The freeroute work-arounds (SES resolution, back-side components, planning for vias, the
 routing boundary) live in `pcbdata.kicad.specctra_text` and `pcbdata.kicad.specctra`; routing a set
-is `pcbdata.baselines.routing.route_set`.
+is `pcbdata.baselines.route.route_set`.
 """
 from __future__ import annotations
 

@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import os
 
-from pcbdata.builders import MAX_COUNT
+from pcbdata.build import MAX_COUNT
 from pcbdata.cli import _checks as checks
 from pcbdata.cli import _executor_options
 from pcbdata.core.errors import UserError
-from pcbdata.spec.configs import SYNTHETIC_SPLITS as SPLITS
+from pcbdata.sets.configs import SYNTHETIC_SPLITS as SPLITS
 
 
 def add_common(parser) -> None:
@@ -41,8 +41,8 @@ def parse_splits(text: str) -> list[str]:
 
 
 def options(args):
-    """The parsed common options as `pcbdata.builders.SyntheticOptions`."""
-    from pcbdata.builders import SyntheticOptions
+    """The parsed common options as `pcbdata.build.SyntheticOptions`."""
+    from pcbdata.build import SyntheticOptions
 
     return SyntheticOptions(splits=parse_splits(args.splits), seed=args.seed, count=args.count,
                             check_train=args.check_train, check=not args.no_check,

@@ -6,7 +6,7 @@ import argparse
 import errno
 import math
 
-from pcbdata.builders import MAX_WORKERS
+from pcbdata.build import MAX_WORKERS
 from pcbdata.core.errors import UserError
 from pcbdata.core.fsutil import os_reason, output_folder  # noqa: F401 - re-exported for verbs
 

@@ -3,7 +3,7 @@
 A verb adds them with `add(parser)` and hands `executor(args)` to its library function:
 
     _executor_options.add(parser)                                        # in register()
-    build_d2(..., executor=_executor_options.executor(args))             # in run()
+    build_level(..., "d2", executor=_executor_options.executor(args))             # in run()
 """
 from __future__ import annotations
 

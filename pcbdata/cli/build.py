@@ -1,4 +1,4 @@
-"""`pcbdata build <family>`: one module per family (build_d1, build_d2, build_d2r, ...)."""
+"""`pcbdata build <family>`: one module per family (build_d1, build_d2, build_d2r, build_d3)."""
 from __future__ import annotations
 
 VERB = "build"

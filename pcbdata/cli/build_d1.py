@@ -36,8 +36,8 @@ def parse_grids(text: str, preset_grids) -> list[int]:
 
 
 def run(args) -> int:
-    from pcbdata.builders import build_d1
-    from pcbdata.spec.presets import d1_preset
+    from pcbdata.build import build_d1
+    from pcbdata.sets.presets import d1_preset
 
     summary = build_d1(args.out, parse_grids(args.grid, d1_preset().grid_sizes), args.placement,
                        common.options(args))

@@ -21,10 +21,10 @@ def register(parser) -> None:
 
 
 def run(args) -> int:
-    from pcbdata.builders import build_d2
-    from pcbdata.spec.presets import parse_overrides
+    from pcbdata.build import build_level
+    from pcbdata.sets.presets import parse_overrides
 
     overrides = parse_overrides(args.overrides)
-    summary = build_d2(args.out, args.level, overrides, common.options(args))
+    summary = build_level(args.out, "d2", args.level, overrides, common.options(args))
     print(f"done: {summary.line()}")
     return 0

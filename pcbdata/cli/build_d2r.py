@@ -47,13 +47,13 @@ def _add_reference_options(parser) -> None:
 
 
 def run(args) -> int:
-    from pcbdata.builders import build_d2r
-    from pcbdata.spec.presets import parse_overrides
+    from pcbdata.build import build_level
+    from pcbdata.sets.presets import parse_overrides
 
     overrides = parse_overrides(args.overrides)
     options = common.options(args)
     options.reference = reference_plan(args)
-    summary = build_d2r(args.out, args.level, overrides, options)
+    summary = build_level(args.out, "d2r", args.level, overrides, options)
     print(f"done: {summary.line()}")
     return 0
 

@@ -27,7 +27,7 @@ def register(parser) -> None:
 def run(args) -> int:
     import sys
 
-    from pcbdata.builders import build_d3
+    from pcbdata.build import build_d3
 
     log = (lambda line: None if not line.startswith("d3:") else
            print(line, file=sys.stderr, flush=True)) if args.quiet else None

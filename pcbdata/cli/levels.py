@@ -1,12 +1,19 @@
-"""`pcbdata levels`: the D2 difficulty levels and the realistic (D2R) levels of this version."""
+"""`pcbdata levels`: the levels of every family with levels (D2's difficulty levels, D2R's
+realistic levels, and any registered family's) of this version."""
 from __future__ import annotations
 
 VERB = "levels"
 HELP = "list the D2 difficulty levels and the D2R realistic levels with their parameters"
 
 
+def _level_families() -> list[str]:
+    from pcbdata.generators.families import families
+
+    return [record.name for record in families() if record.has_levels]
+
+
 def register(parser) -> None:
-    parser.add_argument("--family", choices=("d2", "d2r"), default=None,
+    parser.add_argument("--family", choices=_level_families(), default=None,
                         help="only this family's levels (with --json: default d2)")
     parser.add_argument("--json", action="store_true",
                         help="full parameters as JSON, by level name, of one family")
@@ -16,9 +23,9 @@ def register(parser) -> None:
 def run(args) -> int:
     import json
 
-    from pcbdata.spec.configs import registry
+    from pcbdata.sets.configs import registry
 
-    families = [args.family] if args.family else ["d2", "d2r"]
+    families = [args.family] if args.family else _level_families()
     if args.json:
         families = [args.family or "d2"]
     specs = [spec for spec in registry().values() if spec.family in families]  # rank order

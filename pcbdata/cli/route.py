@@ -40,7 +40,7 @@ def register(parser) -> None:
 
 
 def run(args) -> int:
-    from pcbdata.baselines.routing import route_set
+    from pcbdata.baselines.route import route_set
     from pcbdata.core.errors import UserError
 
     if os.path.exists(args.out) and not os.path.isdir(args.out):

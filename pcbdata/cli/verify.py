@@ -29,7 +29,7 @@ def checked_run(args) -> int:
 
 def run(args) -> int:
     from pcbdata.model.manifest import read_manifest
-    from pcbdata.publish.verify_set import verify_release, verify_set
+    from pcbdata.sets.verify import verify_release, verify_set
 
     problems = verify_set(args.dir)
     checks = verify_release(args.dir) if args.release else []

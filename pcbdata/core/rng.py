@@ -22,7 +22,6 @@ T = TypeVar("T")
 # SeedSequence (non-negative integers only): 0 .. 2**63 - 1 is what all of them can hold.
 MAX_SEED = 2**63 - 1
 
-FAMILY_KEYS = {"d1": 1, "d2": 2, "d2r": 3}
 SPLIT_KEYS = {"train": 0, "validation": 1, "test": 2}
 SEED_SCHEME = (
     "numpy SeedSequence(entropy=seed, spawn_key=(family, variant, split, index)) -> PCG64 raw "
@@ -31,13 +30,11 @@ SEED_SCHEME = (
 )
 
 
-def seed_scheme(family: str) -> str:
-    """The manifest's description of a family's streams; D1 and D2 keep the text their
-    released manifests hold."""
-    if family in ("d1", "d2"):
-        return SEED_SCHEME
-    return SEED_SCHEME.replace("family d1=1, d2=2;", "family d1=1, d2=2, d2r=3;").replace(
-        "0 for d2;", "0 for d2 and d2r;")
+def extended_scheme(keys: str, variants: str) -> str:
+    """`SEED_SCHEME` naming more families: `keys` replaces "d1=1, d2=2" (e.g. "d1=1, d2=2,
+    d2r=3") and `variants` replaces "0 for d2" (e.g. "0 for d2 and d2r")."""
+    return SEED_SCHEME.replace("family d1=1, d2=2;", f"family {keys};").replace(
+        "0 for d2;", f"{variants};")
 
 
 def check_seed(seed, where: str = "seed") -> int:
@@ -51,9 +48,10 @@ def check_seed(seed, where: str = "seed") -> int:
 class Stream:
     """One board's random stream."""
 
-    def __init__(self, seed: int, family: str, variant: int, split: str, index: int):
+    def __init__(self, seed: int, family_key: int, variant: int, split: str, index: int):
+        """`family_key`: the family's own key (`Family.seed_key`: d1 1, d2 2, d2r 3)."""
         sequence = np.random.SeedSequence(
-            entropy=seed, spawn_key=(FAMILY_KEYS[family], variant, SPLIT_KEYS[split], index)
+            entropy=seed, spawn_key=(family_key, variant, SPLIT_KEYS[split], index)
         )
         self._bits = np.random.PCG64(sequence)
 

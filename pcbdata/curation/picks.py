@@ -5,10 +5,10 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from pcbdata.core.tree import d3_board_id
-from pcbdata.spec.configs import D3_TIERS
+from pcbdata.sets.configs import D3_TIERS
 
 if TYPE_CHECKING:
-    from pcbdata.spec.recipe import Override, Recipe
+    from pcbdata.sets.recipe import Override, Recipe
 
 COLUMNS = ["board_id", "name", "nets", "components", "pads", "layers", "tier", "in_test"]
 

@@ -1,6 +1,6 @@
 """The routing environment (SPEC section 6): `import gymnasium as gym, pcbdata.env`, then
 `gym.make("pcbdata/Route-d2-v2", root=SET, split="test")` (one id per config of
-`pcbdata.spec.configs.registry()`), or `pcbdata.env.make(SET, CONFIG)` for any config a built set
+`pcbdata.sets.configs.registry()`), or `pcbdata.env.make(SET, CONFIG)` for any config a built set
 holds (`gym.make("pcbdata/Route-v2", root=SET, config=CONFIG)`); see docs/env.md."""
 from pcbdata.env.registry import (
     SET_ENV_ID,

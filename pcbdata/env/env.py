@@ -14,13 +14,13 @@ import numpy as np
 from gymnasium import spaces
 
 from pcbdata.env import candidates as cand
-from pcbdata.env import masks, observation, routing
+from pcbdata.env import masks, observation, operations
 from pcbdata.env.actions import action_space, parse_action
 from pcbdata.env.errors import BoardLoadError, EngineFailure, EnvValueError
-from pcbdata.env.generator import instance_files, make_source, resolve_config
 from pcbdata.env.options import make_options, with_capacities
 from pcbdata.env.reward import Telescope, board_state, canonical, counted, unconnected_from_clusters
 from pcbdata.env.session import KicadSession
+from pcbdata.env.sources import instance_files, make_source
 from pcbdata.env.static import static_board
 from pcbdata.env.types import (
     ACTION_TYPES,
@@ -39,6 +39,7 @@ from pcbdata.env.types import (
     Head,
 )
 from pcbdata.env.viewer import RENDER_MODES, RENDER_SIZE, state_records
+from pcbdata.sets.configs import resolve_config
 
 #: The default step limit's floor and its steps per connection left at reset (a connection
 #: takes the scripted agent about five steps: net_select, start_route, finish, a via, net_end).
@@ -348,11 +349,11 @@ class RoutingEnv(gym.Env):
             c = self._cands[a.candidate]
             goal, target = (c.x, c.y), c.layer
         if a.type == MAKE_LINE:
-            done = routing.make_line(s, self._get_router, net, head, goal, a.mode, times)
+            done = operations.make_line(s, self._get_router, net, head, goal, a.mode, times)
         elif a.type == MAKE_VIA:
-            done = routing.make_via(s, self._get_router, net, head, goal, a.mode, times, target)
+            done = operations.make_via(s, self._get_router, net, head, goal, a.mode, times, target)
         else:
-            done = routing.finish(s, self._get_router, net, head, self._finish_targets(),
+            done = operations.finish(s, self._get_router, net, head, self._finish_targets(),
                                   a.mode, self.options.finish_tries, times)
         report = {"ok": done.ok, "mode": MODES[a.mode], "reason": done.reason,
                   "stats": done.stats}
@@ -361,9 +362,9 @@ class RoutingEnv(gym.Env):
         if done.edits:
             before = self._snap["clusters"]
             self._apply(done.edits)
-            lost = routing.lost_connections(before, self._snap["clusters"], done.moved)
+            lost = operations.lost_connections(before, self._snap["clusters"], done.moved)
             if lost:  # KiCad is the judge: a moved net came apart, so the shove is undone
-                self._apply(routing.undo(done.edits))
+                self._apply(operations.undo(done.edits))
                 report.update(ok=False, reason=f"push_n_shove: undone, KiCad's connectivity "
                                                f"shows net {lost[0]!r} lost a connection")
                 return report, True
@@ -415,8 +416,8 @@ class RoutingEnv(gym.Env):
         if not pruned["edits"]:
             return False
         self._took(pruned["snapshot"], pruned["edits"], drc)
-        if routing.lost_connections(before, self._snap["clusters"], nets):
-            self._apply(routing.undo(pruned["edits"]))
+        if operations.lost_connections(before, self._snap["clusters"], nets):
+            self._apply(operations.undo(pruned["edits"]))
         return True
 
     def _took(self, snap: dict, edits: list[dict], drc: bool) -> None:

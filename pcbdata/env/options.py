@@ -9,20 +9,23 @@ from typing import Any
 
 from pcbdata.env.errors import EnvOptionError, EnvValueError
 from pcbdata.evaluator.metrics import Weights
+from pcbdata.generators.families import CURATED
+from pcbdata.generators.families import family as family_record
 from pcbdata.router.walkaround import BUDGET_CHECKS, BUDGET_NODES
 
-#: Fixed array sizes of the observation (per family); a board larger than these is a clear
-#: error at reset naming the option to raise.
-CAPACITIES = {
-    "d1": {"max_nets": 8, "max_pads": 16, "max_tracks": 512, "max_vias": 16,
-           "max_outline_points": 64, "max_ratsnest": 16},
-    "d2": {"max_nets": 32, "max_pads": 128, "max_tracks": 1024, "max_vias": 256,
-           "max_outline_points": 64, "max_ratsnest": 128},
-    "d2r": {"max_nets": 1024, "max_pads": 4096, "max_tracks": 4096, "max_vias": 1024,
-            "max_outline_points": 2048, "max_ratsnest": 2048},
-    "d3": {"max_nets": 1024, "max_pads": 4096, "max_tracks": 4096, "max_vias": 1024,
-           "max_outline_points": 2048, "max_ratsnest": 2048},
-}
+#: Fixed array sizes of the observation (per family: `Family.capacities`, D3's below); a board
+#: larger than these is a clear error at reset naming the option to raise.
+D3_CAPACITIES = {"max_nets": 1024, "max_pads": 4096, "max_tracks": 4096, "max_vias": 1024,
+                 "max_outline_points": 2048, "max_ratsnest": 2048}
+CAPACITY_NAMES = tuple(D3_CAPACITIES)
+
+
+def capacities(family: str) -> dict[str, int]:
+    """The observation's array sizes for a family's boards (its `Family.capacities`; D3's
+    here)."""
+    if family == CURATED:
+        return dict(D3_CAPACITIES)
+    return dict(family_record(family).capacities)
 
 
 @dataclass(frozen=True)
@@ -39,7 +42,7 @@ class EnvOptions:
     drc: str = "step"  # "step": KiCad DRC after every copper change; "terminal": at the end
     ring_mm: float = 0.5
     max_candidates: int = 64
-    max_nets: int = 0  # 0: the family's capacity (CAPACITIES)
+    max_nets: int = 0  # 0: the family's capacity (`capacities`)
     max_pads: int = 0
     max_tracks: int = 0
     max_vias: int = 0
@@ -81,7 +84,7 @@ def make_options(**given) -> EnvOptions:
             close = difflib.get_close_matches(str(value), allowed, n=1, cutoff=0.3)
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise EnvValueError(f"option {name}={value!r} is not one of {', '.join(allowed)}{hint}")
-    negative = [name for name in CAPACITIES["d2"] if getattr(options, name) < 0]
+    negative = [name for name in CAPACITY_NAMES if getattr(options, name) < 0]
     if negative:
         raise EnvValueError(f"{negative[0]} must be >= 1 (0: the family's default)")
     if (options.max_steps is not None and options.max_steps < 1) or options.max_candidates < 9:
@@ -91,8 +94,8 @@ def make_options(**given) -> EnvOptions:
 
 
 def with_capacities(options: EnvOptions, family: str) -> EnvOptions:
-    """`options` with every capacity left at 0 set to the family's (`CAPACITIES`)."""
-    caps = CAPACITIES[family]
+    """`options` with every capacity left at 0 set to the family's (`capacities`)."""
+    caps = capacities(family)
     unset: dict[str, Any] = {k: v for k, v in caps.items() if getattr(options, k) == 0}
     return replace(options, **unset)
 

@@ -1,6 +1,6 @@
 """Gymnasium ids of the routing environment.
 
-- `pcbdata/Route-<config>-v2`: one per config of `pcbdata.spec.configs.registry()`, and its
+- `pcbdata/Route-<config>-v2`: one per config of `pcbdata.sets.configs.registry()`, and its
   RL-wrapped twin `pcbdata/RouteRL-<config>-v2` (`pcbdata.env.wrappers.rl`).
 - `pcbdata/Route-v2` and `pcbdata/RouteRL-v2`: any config, named by the `config` option, of
   the built set `root` (custom D2 levels such as `d2-hard-custom-<hash>`, D1 placements such
@@ -43,7 +43,7 @@ def rl_env_id(config: str, version: int = VERSION) -> str:
 def env_id_for(config: str) -> str:
     """The id to make `config` with: its own id when the registry has one, else the set id
     (`SET_ENV_ID`, with `config=` among the options)."""
-    from pcbdata.spec.configs import registry
+    from pcbdata.sets.configs import registry
 
     return env_id(config) if config in registry() else SET_ENV_ID
 
@@ -70,7 +70,7 @@ def register_all() -> list[str]:
 
 
 def _register(id_of, entry_point: str) -> list[str]:
-    from pcbdata.spec.configs import registry
+    from pcbdata.sets.configs import registry
 
     ids = []
     for name in registry():

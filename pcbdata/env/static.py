@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from pcbdata.env.types import NetRules, PadInfo, StaticBoard
-from pcbdata.spec.configs import ConfigSpec
+from pcbdata.sets.configs import ConfigSpec
 
 
 def _lattice(spec: ConfigSpec) -> tuple[int | None, int | None]:

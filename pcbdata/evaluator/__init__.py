@@ -5,9 +5,9 @@
 - `evaluate_set(...)`: a whole submission with the @k protocol and reports (`pcbdata eval`).
 - `metrics`, `integrity`: the pure math, importable without KiCad.
 """
-from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, score
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights
 from pcbdata.evaluator.runs import evaluate_set, markdown_table
+from pcbdata.evaluator.scorer import EVALUATOR_VERSION, Evaluator, score
 
 __all__ = ["EVALUATOR_VERSION", "Evaluator", "score", "DEFAULT_WEIGHTS", "Weights",
            "evaluate_set", "markdown_table"]

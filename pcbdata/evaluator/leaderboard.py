@@ -20,9 +20,9 @@ from pathlib import Path
 
 from pcbdata.core.errors import UserError
 from pcbdata.core.tree import list_instances
-from pcbdata.evaluator.core import EVALUATOR_VERSION
 from pcbdata.evaluator.metrics import Weights
 from pcbdata.evaluator.results import BOARD_FIELDS, RESULTS_FILE, derive, read_results
+from pcbdata.evaluator.scorer import EVALUATOR_VERSION
 from pcbdata.evaluator.site import check_out, table_title, write_site
 
 #: What a table's rows must share, in the order differences are named.

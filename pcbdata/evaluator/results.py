@@ -21,8 +21,8 @@ from pathlib import Path
 
 from pcbdata.core.errors import UserError
 from pcbdata.core.machine import machine_info
-from pcbdata.evaluator.core import EVALUATOR_VERSION, failed_record
 from pcbdata.evaluator.protocol import board_row, summarize
+from pcbdata.evaluator.scorer import EVALUATOR_VERSION, failed_record
 
 SCHEMA_ID = "pcbdata-results-1"
 SCHEMA_FILE = "results.schema.json"

@@ -23,14 +23,14 @@ from pcbdata.core.fsutil import folder_lock, write_atomic
 from pcbdata.core.hashing import sha256_file
 from pcbdata.core.tree import REFERENCE_FILE, list_instances
 from pcbdata.evaluator.accounting import llm_totals
-from pcbdata.evaluator.core import EVALUATOR_VERSION, Evaluator, complete, instance_hash
 from pcbdata.evaluator.metrics import DEFAULT_WEIGHTS, Weights, convention_of
 from pcbdata.evaluator.protocol import board_row, summarize
 from pcbdata.evaluator.results import RESULTS_FILE, results_text
 from pcbdata.evaluator.results import build as build_results
-from pcbdata.evaluator.setcheck import mark, refuse_unverified, set_identity
+from pcbdata.evaluator.scorer import EVALUATOR_VERSION, Evaluator, complete, instance_hash
 from pcbdata.executors import Executor
 from pcbdata.kicad.pool import is_limit_error, memory_limit_from_env
+from pcbdata.sets.identity import mark, refuse_unverified, set_identity
 
 TIME_KEYS = ("time_s", "time", "seconds", "wall_time_s")
 ROLLOUT_COLUMNS = ["board_id", "rollout", "index", "status", "reason", "cp", "pot", "rout", "drv",

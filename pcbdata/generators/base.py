@@ -1,13 +1,18 @@
 """The generator protocol: what every board generator (D1, D2, ...) provides.
 
-The build pipeline (`pcbdata.synthetic.build`), the golden tests and the routing environment
+The build pipeline (`pcbdata.build.synthetic`), the golden tests and the routing environment
 see generators through `Generator` only; family specifics stay in the family's module. A
 generator that also exports whole splits as arrays (D1: the Connector arrays) implements
-`SplitArrays` as well.
+`SplitArrays` as well. `Family` is what a family tells the rest of pcbdata about itself (its
+configs, seed streams, environment sizes and card text); `pcbdata.generators.families` keeps
+the table.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from importlib.abc import Traversable
+from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from pcbdata.core.tree import synthetic_board_id
@@ -66,7 +71,7 @@ class Generator(Protocol):
     Generators are picklable: builds run them in worker processes.
     """
 
-    family: str          # "d1", "d2": the family key of the random streams
+    family: str          # the family's name ("d1", "d2", "d2r": `Family.name`)
     routing_layers: int  # copper layers routing may use (a fact of every board)
 
     def generate(self, seed: int, split: str, index: int) -> Instance: ...
@@ -81,3 +86,37 @@ class SplitArrays(Protocol):
 
     def split_arrays(self, board_ids: list[str], rows: list) -> bytes:
         """The `.npz` bytes of a split from its boards' rows, in board order."""
+
+
+@dataclass(frozen=True)
+class Family:
+    """One generator family, as the rest of pcbdata sees it (`pcbdata.generators.families`).
+
+    `name` starts every config name of the family (`d2r-a`); `seed_key` is the family's key of
+    the random streams (`pcbdata.core.rng.Stream`: disjoint per family); `params` is its typed
+    parameter set (`from_dict(values, where)`, `as_dict()`); `make_generator(parameters,
+    manifest, where)` makes its generator from the parameters and the extra manifest fields a
+    config records; `capacities` are the routing environment's observation sizes for its
+    boards; `title` and `text` head its part of a dataset card. A family with levels keeps them
+    in `levels_file` (a TOML file: `version`, `seed`, `[splits]`, `[levels.<name>]` tables of
+    parameters plus `level_meta` fields); `default_level` is the level the bare family name
+    means (`d2` is D2's `default`). `seed_coupling` and `seed_scheme` are the manifest's texts;
+    `rank` orders families in listings (smaller first)."""
+
+    name: str
+    seed_key: int
+    params: type
+    make_generator: Callable[[dict, dict, str], Generator]
+    capacities: Mapping[str, int]
+    title: str
+    text: str
+    seed_coupling: str
+    seed_scheme: str
+    rank: int
+    levels_file: Traversable | Path | None = None
+    default_level: str | None = None
+    level_meta: tuple[str, ...] = ("rank", "description", "version")
+
+    @property
+    def has_levels(self) -> bool:
+        return self.levels_file is not None

@@ -6,6 +6,7 @@
   `materialize_row` and `materialize`: rows back to KiCad files.
 - `push(root, repo)`: upload to the Hugging Face Hub.
 """
+from pcbdata.publish.audit import verify_published
 from pcbdata.publish.loading import (
                                      BoardOnDisk,
                                      iter_boards,
@@ -16,7 +17,6 @@ from pcbdata.publish.loading import (
 )
 from pcbdata.publish.publisher import publish_set
 from pcbdata.publish.push import push
-from pcbdata.publish.verify import verify_published
 
 __all__ = ["publish_set", "verify_published", "load", "iter_boards", "row_files",
            "materialize_row", "materialize", "BoardOnDisk", "push"]

@@ -23,7 +23,7 @@ from pathlib import Path
 from pcbdata.core.errors import UserError
 from pcbdata.core.fsutil import write_atomic
 from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE, RULES_FILE
-from pcbdata.spec.configs import order_key
+from pcbdata.sets.configs import order_key
 
 CARD_NAME = "README.md"
 STATE_NAME = "publish.json"
@@ -57,7 +57,7 @@ def split_key(split: str) -> tuple[int, str]:
 
 
 def config_key(config: str) -> tuple:
-    """Reading order of configs (`pcbdata.spec.configs.order_key`): d2 (and its levels), d1 by grid
+    """Reading order of configs (`pcbdata.sets.configs.order_key`): d2 (and its levels), d1 by grid
     size, d3 tiers, then the rest."""
     return order_key(config)
 

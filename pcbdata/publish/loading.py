@@ -17,9 +17,9 @@ from pcbdata.core.errors import UserError
 from pcbdata.core.fsutil import write_dir_atomic
 from pcbdata.core.hashing import sha256_bytes, sha256_file
 from pcbdata.core.tree import BOARD_FILE, PROJECT_FILE, REFERENCE_FILE
+from pcbdata.publish.audit import recorded_shard_hashes as _recorded_hashes
 from pcbdata.publish.card import read_card_configs
 from pcbdata.publish.layout import CARD_NAME, FILE_COLUMNS, STATE_NAME, split_key, suggest
-from pcbdata.publish.verify import recorded_shard_hashes as _recorded_hashes
 
 ROOT_ENV = "PCBDATA_ROOT"
 _HUB_ID = re.compile(r"^[A-Za-z0-9][\w.-]*/[\w.-]+$")
@@ -118,7 +118,7 @@ def _load_split(config: str, split: str, root: str | Path, **kwargs):
 
 
 def _pinned_release(config: str):
-    from pcbdata.publish.manifests import pinned_release, released_configs
+    from pcbdata.sets.releases import pinned_release, released_configs
 
     release = pinned_release(config)
     if release is None:
@@ -131,8 +131,8 @@ def _require_release(ds, release, split: str, root: str | Path) -> None:
     """Raises UserError unless the loaded rows are the pinned release's (or, for a local set
     whose manifest declares fewer boards, the boards that manifest lists, each released)."""
     from pcbdata.model.manifest import MANIFEST_NAME, read_manifest
-    from pcbdata.publish.manifests import check_release
-    from pcbdata.publish.verify import release_row_problems
+    from pcbdata.publish.audit import release_row_problems
+    from pcbdata.sets.releases import check_release
 
     config = release.config
     problems, expected = [], None

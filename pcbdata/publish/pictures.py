@@ -17,7 +17,7 @@ from pcbdata.board_render import Picture, draw_picture, read_boards
 from pcbdata.core.drawing import png_bytes, side_by_side
 from pcbdata.kicad import KicadPool
 from pcbdata.publish.layout import write_file
-from pcbdata.spec.configs import D3_TIERS
+from pcbdata.sets.configs import D3_TIERS
 
 # Colours of the D3 tiers, and of everything else.
 _TIER_COLOURS = {D3_TIERS["A"]: "#4c78a8", D3_TIERS["B"]: "#f58518", D3_TIERS["C"]: "#54a24b"}

@@ -50,8 +50,8 @@ from pcbdata.publish.rows import (
     schema_for,
     table_from_rows,
 )
-from pcbdata.spec.configs import D3_TIERS
-from pcbdata.spec.recipe import tier_rules
+from pcbdata.sets.configs import D3_TIERS
+from pcbdata.sets.recipe import tier_rules
 
 SHARD_BYTES = 256 * 1024 * 1024  # uncompressed text per shard
 ROW_GROUP_BYTES = 32 * 1024 * 1024

@@ -15,9 +15,9 @@ from pathlib import Path
 from pcbdata.core.errors import UserError
 from pcbdata.core.tree import D3_TABLES, arrays_name
 from pcbdata.model.manifest import MANIFEST_NAME, read_manifest
+from pcbdata.publish.audit import verify_published
 from pcbdata.publish.card import read_card_configs
 from pcbdata.publish.layout import ATTRIBUTION_NAME, CARD_NAME, PICTURES_DIR, STATE_NAME, config_key
-from pcbdata.publish.verify import verify_published
 
 # Tables the D3 build writes next to the boards (attribution, characteristics, curation report,
 # the collection's licence notice): uploaded when present.

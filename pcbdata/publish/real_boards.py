@@ -29,8 +29,8 @@ from pcbdata.core.tree import BOARD_FILE, board_dir
 from pcbdata.kicad import KicadPool
 from pcbdata.publish.layout import PICTURES_DIR
 from pcbdata.resources import resource_path
-from pcbdata.spec.configs import D3_TIERS
-from pcbdata.spec.presets import d2r_levels
+from pcbdata.sets.configs import D3_TIERS
+from pcbdata.sets.presets import levels
 
 _FOLDER = "real_boards"
 _INDEX = "real_boards.toml"
@@ -66,7 +66,7 @@ def tier_real_board(cfg: dict) -> RealBoard | None:
     None (also for a level of no tier)."""
     if cfg.get("family") != "d2r":
         return None
-    tier = d2r_levels().get(cfg.get("level") or "", {}).get("tier")
+    tier = levels("d2r").get(cfg.get("level") or "", {}).get("tier")
     return real_boards().get(tier) if tier else None
 
 

@@ -20,7 +20,7 @@ KiCad stays the judge. A request is planned in three steps:
 
 Every new path is a walkaround path, so it keeps clearance by construction; the environment
 then applies the plan in one KiCad round trip and undoes it if KiCad's connectivity shows that
-a moved net lost a connection (`pcbdata.env.routing`). Nothing here imports KiCad.
+a moved net lost a connection (`pcbdata.env.operations`). Nothing here imports KiCad.
 """
 from __future__ import annotations
 

@@ -115,8 +115,8 @@ def check_options(env_id: str, options: dict[str, Any]) -> None:
     import gymnasium as gym
 
     import pcbdata.env  # noqa: F401 - registers the ids
-    from pcbdata.env.generator import resolve_config
     from pcbdata.env.options import make_options
+    from pcbdata.sets.configs import resolve_config
 
     spec = gym.spec(env_id)
     checked = make_options(**{**spec.kwargs, **options})

@@ -1,6 +1,6 @@
 """Reference routings found by a bundled agent (`pcbdata build d2r --reference-agent`): the plan
 the build carries and the worker task that routes one board. The build's side (which boards,
-resume log, manifest) is `pcbdata.synthetic.reference_routing`.
+resume log, manifest) is `pcbdata.build.reference`.
 
 A board is routed as `pcbdata rollout` routes it: the same environment options (its
 defaults: a DRC after every step, the step limit per board), agent seeds 0, 1, ..., one
@@ -14,13 +14,13 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-from pcbdata.core.errors import UserError
-from pcbdata.synthetic.reference_routing import (
+from pcbdata.build.reference import (
     ENGINE_FAILURE,
     NOT_COMPLETED,
     ROUTED,
     ReferencePlan,
 )
+from pcbdata.core.errors import UserError
 
 #: The agents a build may route with: bundled, deterministic, offline. The best first.
 AGENTS = ("scripted-shove", "scripted")
@@ -38,7 +38,7 @@ def plan(agent: str = DEFAULT_AGENT, rollouts: int = DEFAULT_ROLLOUTS,
     `splits` None: validation and test, of the splits being built."""
     from pcbdata.env.registry import VERSION
     from pcbdata.runners.rollout import ROLLOUT_TIMEOUT
-    from pcbdata.spec.configs import SYNTHETIC_SPLITS
+    from pcbdata.sets.configs import SYNTHETIC_SPLITS
 
     if agent not in AGENTS:
         raise UserError(f"--reference-agent {agent!r}: choose from {', '.join(AGENTS)}")
@@ -105,7 +105,7 @@ def _measured(board: Path, instance: Path) -> dict:
 
 def _problem(bare: dict, routed_file: Path, instance: Path) -> str | None:
     """Why a saved rollout is not a reference (None: it is), by the evaluator's judgement."""
-    from pcbdata.evaluator.core import judge
+    from pcbdata.evaluator.scorer import judge
     from pcbdata.kicad.scoring import measure
 
     routed = measure(str(routed_file), str(instance))

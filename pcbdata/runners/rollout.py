@@ -173,9 +173,9 @@ def run_rollouts(root, config: str, split: str, agent: str, rollouts: int, out, 
     (`make_agent`); an agent with a `preflight()` (a language model's server) is checked
     once here, before any work (a warning it returns goes to stderr)."""
     from pcbdata.core.tree import list_instances
-    from pcbdata.env.generator import resolve_config
     from pcbdata.env.registry import env_id_for
     from pcbdata.executors import resolve
+    from pcbdata.sets.configs import resolve_config
 
     root, out = Path(root).resolve(), Path(out).resolve()
     resolve_config(config, root)  # any config the set holds; else a UserError naming them

@@ -15,12 +15,12 @@ from dataclasses import dataclass, replace
 
 import shapely
 
-from pcbdata.generators import D2Generator
+from pcbdata.generators.d2 import D2Generator
 from pcbdata.model.board import Board, Pad, Track, Via
 from pcbdata.router.geometry import geometry_from_board
 from pcbdata.router.requests import RouteRequest
 from pcbdata.router.walkaround import WalkaroundRouter
-from pcbdata.spec.presets import d2_level
+from pcbdata.sets.presets import level as preset_level
 
 LAYERS = ("F.Cu", "B.Cu")
 
@@ -38,7 +38,7 @@ class Call:
 
 
 def d2_test_boards(count: int = 128) -> list[tuple[str, Board]]:
-    level = d2_level("default")
+    level = preset_level("d2", "default")
     generator = D2Generator(level.params)
     return [(f"test/{i}", generator.generate(level.seed, "test", i).board) for i in range(count)]
 

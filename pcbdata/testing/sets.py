@@ -20,7 +20,7 @@ def write_set(root: Path, config: str, split: str, count: int) -> Path:
     """The first `count` boards of a synthetic config's split, written as `pcbdata build
     --no-check` writes them (same bytes), with a manifest (`seal_set`): a set in seconds."""
     from pcbdata.model.kicad_writer import board_files
-    from pcbdata.spec.configs import get_config
+    from pcbdata.sets.configs import get_config
 
     spec = get_config(config)
     if spec.seed is None:
@@ -43,7 +43,7 @@ def seal_set(root: Path) -> Path:
     from pcbdata.core.errors import UserError
     from pcbdata.core.hashing import sha256_file
     from pcbdata.model.manifest import FORMAT, write_manifest
-    from pcbdata.spec.configs import get_config
+    from pcbdata.sets.configs import get_config
 
     configs: dict = {}
     for split_dir in sorted(p for p in Path(root).glob("*/*") if p.is_dir()):

@@ -14,7 +14,8 @@ import pytest
 
 from pcbdata.cli import main
 from pcbdata.core.errors import UserError
-from pcbdata.generators import D1Generator, D1Params, D2Generator, D2Params
+from pcbdata.generators.d1 import D1Generator, D1Params
+from pcbdata.generators.d2 import D2Generator, D2Params
 
 PCBDATA = [sys.executable, "-m", "pcbdata"]
 REPO = Path(__file__).resolve().parents[2]

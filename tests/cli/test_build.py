@@ -9,10 +9,10 @@ from dataclasses import replace
 
 import pytest
 
+from pcbdata.build.synthetic import ConfigInfo, SplitJob, build_synthetic
 from pcbdata.cli import main
 from pcbdata.core.errors import ValidationError
-from pcbdata.generators import D2Generator, D2Params
-from pcbdata.synthetic.build import ConfigInfo, SplitJob, build_synthetic
+from pcbdata.generators.d2 import D2Generator, D2Params
 
 PCBDATA = [sys.executable, "-m", "pcbdata"]
 

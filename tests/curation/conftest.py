@@ -17,8 +17,8 @@ def fixture_corpus(tmp_path_factory):
 @pytest.fixture(scope="session")
 def fixture_build(fixture_corpus, kicad_pool):
     """The fixture corpus built once (library call, shared engine pool)."""
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.build.d3 import build
+    from pcbdata.sets.recipe import load_recipe
 
     out = fixture_corpus["root"] / "out"
     lines: list[str] = []

@@ -10,7 +10,7 @@ import pytest
 
 from pcbdata.curation import corpus
 from pcbdata.model.kicad_writer import board_text
-from pcbdata.spec.recipe import load_recipe
+from pcbdata.sets.recipe import load_recipe
 from tests.curation.corpus_fixture import _folder, final_json, fixture_recipe, row_board
 
 UNKNOWN_ATTRIBUTION = "attribution unknown (licence NOASSERTION, not redistributable)"
@@ -86,7 +86,7 @@ def test_unusable_metadata_is_a_note_and_the_board_goes_on(broken):
 
 
 def test_the_build_counts_every_entry_and_records_notes_and_warnings(broken, kicad_pool):
-    from pcbdata.curation.build import build
+    from pcbdata.build.d3 import build
 
     out = broken["root"] / "out"
     log: list[str] = []

@@ -172,8 +172,8 @@ def test_attribution(fixture_build):
 
 
 def test_rebuild_in_place_reuses_state_and_changes_nothing(fixture_build, kicad_pool):
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.build.d3 import build
+    from pcbdata.sets.recipe import load_recipe
 
     before = {p: (fixture_build["out"] / p).read_bytes() for p in tree(fixture_build["out"])}
     lines: list[str] = []
@@ -233,8 +233,8 @@ def test_time_limit_is_an_engine_failure_kept_under_the_same_limit(fixture_corpu
     again; a run with another limit does."""
     import shutil
 
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.build.d3 import build
+    from pcbdata.sets.recipe import load_recipe
 
     src = tmp_path / "src"
     (src / "PCBs").mkdir(parents=True)
@@ -266,8 +266,8 @@ def test_other_sets_in_the_folder_keep_their_manifest_entries(fixture_build, kic
                                                              tmp_path):
     import shutil
 
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.build.d3 import build
+    from pcbdata.sets.recipe import load_recipe
 
     out = tmp_path / "out"
     shutil.copytree(fixture_build["out"], out)

@@ -11,9 +11,9 @@ from tests.curation.test_build_fixture import tree
 
 @pytest.mark.slow
 def test_d3_on_ray_gives_the_local_build(fixture_build, ray_cluster, tmp_path):
-    from pcbdata.curation.build import build
+    from pcbdata.build.d3 import build
     from pcbdata.publish import publish_set
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.sets.recipe import load_recipe
 
     out = tmp_path / "out"
     lines: list[str] = []

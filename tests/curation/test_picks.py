@@ -16,7 +16,7 @@ from pcbdata.curation.picks import (
     number_rows,
     picks,
 )
-from pcbdata.spec.recipe import Override, load_recipe, parse_recipe
+from pcbdata.sets.recipe import Override, load_recipe, parse_recipe
 
 
 def rows(spec):

@@ -6,7 +6,7 @@ import json
 import pytest
 
 from pcbdata.kicad.projectfile import default_clearance, dumps_project, patch_project
-from pcbdata.spec.recipe import load_recipe
+from pcbdata.sets.recipe import load_recipe
 
 SPEC_IGNORED = {"solder_mask_bridge", "drill_out_of_range", "malformed_courtyard",
                 "courtyards_overlap", "annular_width", "copper_edge_clearance",
@@ -112,7 +112,7 @@ def test_packaged_skip_list_has_no_error_default_check_left_unguarded():
 ])
 def test_the_typed_recipe_names_a_missing_or_mistyped_key(edit, message):
     from pcbdata.core.errors import UserError
-    from pcbdata.spec.recipe import parse_recipe
+    from pcbdata.sets.recipe import parse_recipe
 
     raw = load_recipe().text.decode()
     assert edit[0] in raw

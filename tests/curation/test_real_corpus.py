@@ -135,7 +135,7 @@ def test_zero_clearance_board_is_excluded_after_the_picks(real_subset):
 def test_test_splits_are_the_published_picks(real_subset):
     """SPEC section 3, step 9: with every pinned board kept, D3-B and D3-C test are the
     published lists, and the manifest says so."""
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.sets.recipe import load_recipe
 
     published = load_recipe().published
     manifest = json.loads((real_subset["out"] / "manifest.json").read_text(encoding="utf-8"))

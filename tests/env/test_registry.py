@@ -9,7 +9,7 @@ from gymnasium.utils.env_checker import check_env
 
 import pcbdata.env  # noqa: F401
 from pcbdata.env.registry import env_id
-from pcbdata.spec.configs import registry
+from pcbdata.sets.configs import registry
 from tests.helpers import skip_without_snapshot
 
 IDS = [env_id(name) for name in registry()]

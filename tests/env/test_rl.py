@@ -216,7 +216,7 @@ def _write_moved_set(root, dx_mm: float, dy_mm: float) -> None:
     in the board model, the Edge.Cuts rectangle shifted in the text."""
     from pcbdata.model.board import mm_to_nm, nm_to_mm
     from pcbdata.model.kicad_writer import board_files
-    from pcbdata.spec.configs import get_config
+    from pcbdata.sets.configs import get_config
 
     spec = get_config("d2")
     instance = spec.generator().generate(spec.seed, "test", 0)

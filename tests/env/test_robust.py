@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from pcbdata.env import routing
+from pcbdata.env import operations
 from pcbdata.env.env import step_limit
 from pcbdata.env.types import MAKE_LINE, MAKE_VIA, MARK_OBSTACLES, NET_END, NET_SELECT, START_ROUTE
 
@@ -44,9 +44,9 @@ def test_a_refused_edit_keeps_the_last_good_board(make_env, monkeypatch, tmp_pat
                  "points": [(head.x, head.y), tuple(goal)], "width": net.track_width}
         missing = {"kind": "remove", "net": bad_net, "layer": static.layers[0],
                    "start": (1, 1), "end": (2, 2), "width": net.track_width}
-        return routing.Outcome(True, edits=[track, missing], head=head)
+        return operations.Outcome(True, edits=[track, missing], head=head)
 
-    monkeypatch.setattr(routing, "make_line", refused)
+    monkeypatch.setattr(operations, "make_line", refused)
     line = int(next(i for i, m in enumerate(info["action_mask"]["candidate"]) if m))
     obs, reward, terminated, truncated, info = env.step(
         {"type": MAKE_LINE, "net": 0, "candidate": line, "mode": 0})

@@ -24,20 +24,20 @@ def built_sets(tmp_path_factory) -> dict[str, tuple]:
     """{kind: (set folder, config name)}: a custom hard D2 level and D1 random-walk, 3 test
     boards each, with their manifests (no KiCad check, no publication: the boards are the
     generators' and the environment only reads them)."""
-    from pcbdata.builders import SyntheticOptions, build_d1, build_d2
-    from pcbdata.spec.configs import d1_config, d2_config
+    from pcbdata.build import SyntheticOptions, build_d1, build_level
+    from pcbdata.sets.configs import d1_config, level_config
 
     options = SyntheticOptions(splits=["test"], count=3, check=False, publish=False,
                                workers=1, log=lambda *_: None)
     d2_root, d1_root = tmp_path_factory.mktemp("d2c"), tmp_path_factory.mktemp("d1rw")
-    build_d2(d2_root / "set", "hard", D2_CUSTOM, options)
+    build_level(d2_root / "set", "d2", "hard", D2_CUSTOM, options)
     build_d1(d1_root / "set", [10], "random-walk", options)
-    return {"d2": (d2_root / "set", d2_config("hard", D2_CUSTOM).name),
+    return {"d2": (d2_root / "set", level_config("d2", "hard", D2_CUSTOM).name),
             "d1": (d1_root / "set", d1_config(10, "random-walk").name)}
 
 
 def test_the_configs_are_outside_the_registry(built_sets):
-    from pcbdata.spec.configs import registry
+    from pcbdata.sets.configs import registry
 
     names = [name for _, name in built_sets.values()]
     assert names[0].startswith("d2-hard-custom-") and names[1] == "d1-g10-random-walk"

@@ -8,7 +8,7 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from pcbdata.env import routing
+from pcbdata.env import operations
 from pcbdata.env.types import FINISH, PUSH_N_SHOVE
 from pcbdata.testing.sets import write_set
 from tests.router.test_shove import B_DIP
@@ -16,11 +16,11 @@ from tests.router.test_walkaround import WIDTH
 
 
 def test_undo_reverses_edits():
-    edits = [routing.remove_edit(B_DIP[0]),
+    edits = [operations.remove_edit(B_DIP[0]),
              {"kind": "track", "net": "A", "layer": "F.Cu", "points": [(0, 0), (5, 0), (5, 5)],
               "width": WIDTH},
              {"kind": "via", "net": "A", "at": (5, 5), "diameter": 600, "drill": 300}]
-    back = routing.undo(edits)
+    back = operations.undo(edits)
     assert [e["kind"] for e in back] == ["remove_via", "remove", "remove", "track"]
     assert back[1]["start"] == (5, 0) and back[2]["start"] == (0, 0)
     assert back[3]["points"] == [B_DIP[0].start, B_DIP[0].end]
@@ -125,7 +125,7 @@ def test_a_lost_connection_is_undone(make_env, expert_set, shoving_episode, monk
     obs, _ = env.reset(options={"board_id": SHOVE_BOARD})
     for a in actions[:first]:
         obs, *_ = env.step(a)
-    monkeypatch.setattr(routing, "lost_connections", lambda before, after, nets: list(nets))
+    monkeypatch.setattr(operations, "lost_connections", lambda before, after, nets: list(nets))
     obs2, _, _, _, info = env.step(actions[first])
     assert not info["router"]["ok"] and "undone" in info["router"]["reason"]
     np.testing.assert_array_equal(obs2["routing_geometry"]["tracks"],

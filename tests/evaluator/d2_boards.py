@@ -19,7 +19,7 @@ from pathlib import Path
 
 from boards import write_board, write_instance
 
-from pcbdata.generators import D2Generator, D2Params
+from pcbdata.generators.d2 import D2Generator, D2Params
 from pcbdata.model.board import Arc, Track, Via, mm_to_nm
 
 ZONES = """\t(zone

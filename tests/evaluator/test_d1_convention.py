@@ -23,8 +23,7 @@ ONE_OPEN = 4 - (3 * math.log(1.5) + math.log(1.5))  # Phi = -1 - f (one net hit)
 def d1_runs(tmp_path_factory):
     """A D1-10 set of one random-walk board (its walks are a clean, complete routing) and a
     runs folder: the complete routing, the bare board, and the routing without one net."""
-    from pcbdata.generators import D1Generator
-    from pcbdata.generators.d1 import D1Params
+    from pcbdata.generators.d1 import D1Generator, D1Params
 
     inst = D1Generator(D1Params(grid=10, placement="random-walk")).generate(0, "test", 0)
     root = tmp_path_factory.mktemp("d1set")

@@ -65,7 +65,7 @@ def published_test_boards(config: str) -> dict[str, dict]:
     manifest entry (files and sha256)."""
     from importlib.resources import files
 
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.sets.recipe import load_recipe
 
     data = files("pcbdata.resources").joinpath(f"releases/{config}.json.gz").read_bytes()
     boards = json.loads(gzip.decompress(data))["configs"][config]["splits"]["test"]["boards"]

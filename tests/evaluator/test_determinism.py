@@ -10,8 +10,8 @@ import random
 import pytest
 from d2_boards import write_d2_instance, write_honest_board, write_tangled_board
 
-from pcbdata.evaluator.core import MEASURE
 from pcbdata.evaluator.metrics import board_state, drc_penalty
+from pcbdata.evaluator.scorer import MEASURE
 from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.kicad.scoring import violation_order, violation_records
 from pcbdata.testing.sets import seal_set

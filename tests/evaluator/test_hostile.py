@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from pcbdata.baselines.routing import rollout_plans
+from pcbdata.baselines.route import rollout_plans
 from pcbdata.baselines.specctra import freeroute_available
 from pcbdata.testing.sets import write_set
 from tests.conftest import SHARED_PCBENCH
@@ -39,8 +39,8 @@ def _routed_synthetic(root: Path, config: str, pool) -> tuple[Path, Path]:
 
 
 def _d3_reference(root: Path, pool) -> tuple[Path, Path]:
-    from pcbdata.curation.build import build
-    from pcbdata.spec.recipe import load_recipe
+    from pcbdata.build.d3 import build
+    from pcbdata.sets.recipe import load_recipe
 
     source = root / "pcbench"
     source.mkdir()

@@ -13,7 +13,7 @@ from boards import ROUTE_A, ROUTE_B, base_board, routed, write_board, write_inst
 from pcbdata.cli import main
 from pcbdata.core.errors import UserError
 from pcbdata.evaluator.runs import CACHE_NAME, evaluate_set
-from pcbdata.spec.configs import get_config
+from pcbdata.sets.configs import get_config
 from pcbdata.testing.sets import seal_set
 
 BOARDS = ("b0", "b1", "b2", "b3")
@@ -133,7 +133,7 @@ def test_missing_times_are_counted_and_warned(board_set, runs, tmp_path, capsys)
 
 
 def test_a_huge_file_is_refused_before_loading(board_set, runs, tmp_path):
-    from pcbdata.evaluator.core import MIN_SIZE_LIMIT
+    from pcbdata.evaluator.scorer import MIN_SIZE_LIMIT
 
     huge = runs / "b0" / "1.kicad_pcb"
     text = huge.read_text()

@@ -119,8 +119,7 @@ def test_routability_counts_pad_clusters_not_ratsnest(evaluator, instance, tmp_p
 
 
 def test_d1_one_layer_rule(evaluator, tmp_path):
-    from pcbdata.generators import D1Generator
-    from pcbdata.generators.d1 import D1Params
+    from pcbdata.generators.d1 import D1Generator, D1Params
 
     inst = D1Generator(D1Params(grid=10, placement="random-walk")).generate(0, "test", 0)
     directory = write_instance(inst.board, tmp_path / "d1")

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import pytest
 from d2_boards import write_d2_instance, write_honest_board, write_honest_board_with_other_uuids
 
-from pcbdata.evaluator.core import MEASURE
 from pcbdata.evaluator.metrics import counted_violations, raw_counts, rollout_metrics
+from pcbdata.evaluator.scorer import MEASURE
 from pcbdata.kicad.drc_report import DrcReport
 from pcbdata.kicad.scoring import violation_records
 

@@ -48,8 +48,8 @@ def test_a_full_list_is_replaced_by_the_clusters_items():
 
 
 def test_the_build_check_expects_a_full_list_past_the_cap():
+    from pcbdata.build.synthetic import check_problem
     from pcbdata.kicad.drc_report import DrcReport, Violation
-    from pcbdata.synthetic.build import check_problem
 
     def report(listed: int) -> DrcReport:
         item = Violation("unconnected_items", "Missing connection", "error", "", "unconnected")
@@ -67,14 +67,14 @@ def test_the_build_check_expects_a_full_list_past_the_cap():
 def many_nets(tmp_path_factory):
     """(instance folder, set folder, config) of one bare board with 505 missing connections,
     built with the KiCad check (which confirms a full list of 499)."""
-    from pcbdata.builders import SyntheticOptions, build_d2
-    from pcbdata.spec.configs import d2_config
+    from pcbdata.build import SyntheticOptions, build_level
+    from pcbdata.sets.configs import level_config
 
     root = tmp_path_factory.mktemp("many-nets") / "set"
     options = SyntheticOptions(splits=["test"], count=1, check=True, publish=False, workers=1,
                                log=lambda *_: None)
-    build_d2(root, "default", MANY_NETS, options)
-    config = d2_config("default", MANY_NETS).name
+    build_level(root, "d2", "default", MANY_NETS, options)
+    config = level_config("d2", "default", MANY_NETS).name
     return root / config / "test" / "board_00000", root, config
 
 

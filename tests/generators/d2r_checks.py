@@ -6,10 +6,10 @@ from shapely.geometry import Polygon, box
 
 from pcbdata.core.hashing import sha256_text
 from pcbdata.core.tree import BOARD_FILE
-from pcbdata.generators.d2r import pad_position
+from pcbdata.generators.d2r.generator import pad_position
 from pcbdata.model.board import Board, EdgeArc, Part
 from pcbdata.model.kicad_writer import board_files
-from pcbdata.spec.configs import d2r_config
+from pcbdata.sets.configs import level_config
 
 
 def courtyard(part: Part) -> Polygon:
@@ -57,7 +57,7 @@ def assert_inside_outline(boards: list[Board]) -> None:
 def assert_train_boards_unchanged(overrides: dict, sha256_by_index: dict[int, str]) -> None:
     """Level a with `overrides` still writes these train boards (seed 0) byte for byte: a new
     parameter at its off value draws no number."""
-    generator = d2r_config("a", overrides).generator()
+    generator = level_config("d2r", "a", overrides).generator()
     for index, sha in sha256_by_index.items():
         board = generator.generate(0, "train", index).board
         assert sha256_text(board_files(board)[BOARD_FILE]) == sha, index

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pcbdata.core.errors import UserError
-from pcbdata.generators import D1Generator, D1Params
+from pcbdata.generators.d1 import D1Generator, D1Params
 from pcbdata.kicad import DrcReport
 from pcbdata.model.board import Via, mm_to_nm
 from pcbdata.model.connector import connector_arrays, npz_bytes

@@ -6,10 +6,12 @@ from collections import Counter
 import pytest
 
 from pcbdata.core.errors import GenerationError, UserError
-from pcbdata.generators import D2Generator, D2Params
+from pcbdata.generators.d2 import D2Generator, D2Params
 from pcbdata.kicad import DrcReport
 from pcbdata.model.board import mm_to_nm
-from pcbdata.spec.presets import d2_level, d2_levels, parse_override
+from pcbdata.sets.presets import level as preset_level
+from pcbdata.sets.presets import levels as preset_levels
+from pcbdata.sets.presets import parse_override
 from pcbdata.testing.sets import write_board
 from tests.helpers import pads_in_file
 
@@ -101,8 +103,8 @@ def test_files_carry_the_pad_shapes_and_rules(tmp_path):
 
 def test_every_level_has_boards_that_pass_drc_with_only_unconnected_items(kicad_pool, tmp_path):
     jobs = []
-    for name in d2_levels():
-        generator = D2Generator(d2_level(name).params)
+    for name in preset_levels("d2"):
+        generator = D2Generator(preset_level("d2", name).params)
         for index in range(6):
             board = generator.generate(0, "test", index).board
             path = write_board(tmp_path / f"{name}-{index}", board)
@@ -113,7 +115,8 @@ def test_every_level_has_boards_that_pass_drc_with_only_unconnected_items(kicad_
 
 
 def test_levels_get_harder_by_rank_in_nets_pads_size_and_spacing():
-    levels = sorted((d2_level(name) for name in d2_levels()), key=lambda level: level.rank)
+    levels = sorted((preset_level("d2", name) for name in preset_levels("d2")),
+                    key=lambda level: level.rank)
     assert levels[0].name == "default" and levels[0].params == D2Params()
     assert len(levels) >= 4
     for easier, harder in zip(levels, levels[1:]):
@@ -130,12 +133,12 @@ def test_levels_get_harder_by_rank_in_nets_pads_size_and_spacing():
 
 def test_unknown_level_suggests_the_closest():
     with pytest.raises(UserError, match="did you mean 'medium'"):
-        d2_level("meduim")
+        preset_level("d2", "meduim")
 
 
 def test_unknown_parameter_suggests_the_closest():
     with pytest.raises(UserError, match="did you mean 'min_pad_spacing_mm'"):
-        d2_level("default", {"min_pad_spacing": 4.0})
+        preset_level("d2", "default", {"min_pad_spacing": 4.0})
 
 
 @pytest.mark.parametrize("override, message", [
@@ -150,7 +153,7 @@ def test_unknown_parameter_suggests_the_closest():
 ])
 def test_impossible_parameters_are_rejected_with_the_reason(override, message):
     with pytest.raises(UserError, match=message):
-        d2_level("default", override)
+        preset_level("d2", "default", override)
 
 
 def test_override_values_are_parsed_as_toml():
@@ -173,5 +176,5 @@ def test_a_board_that_cannot_be_placed_is_an_error_not_a_hang():
     generator = D2Generator(D2Params())
     start = time.perf_counter()
     with pytest.raises(GenerationError, match="could not place 400 pads 4.8 mm apart"):
-        generator._place(Stream(0, "d2", 0, "test", 0), mm_to_nm(80), mm_to_nm(80), 400, "test", 0)
+        generator._place(Stream(0, 2, 0, "test", 0), mm_to_nm(80), mm_to_nm(80), 400, "test", 0)
     assert time.perf_counter() - start < 60

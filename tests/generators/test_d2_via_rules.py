@@ -10,7 +10,8 @@ import pytest
 
 from pcbdata.cli import main
 from pcbdata.evaluator import score
-from pcbdata.generators import D1Generator, D1Params, D2Generator, D2Params
+from pcbdata.generators.d1 import D1Generator, D1Params
+from pcbdata.generators.d2 import D2Generator, D2Params
 from pcbdata.model.board import mm_to_nm
 from pcbdata.model.kicad_writer import mm
 from pcbdata.testing.sets import write_board

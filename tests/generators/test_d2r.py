@@ -11,17 +11,17 @@ import pytest
 from pcbdata.core.errors import UserError
 from pcbdata.core.rng import Stream
 from pcbdata.core.tree import PROJECT_FILE, RULES_FILE
-from pcbdata.generators import D2RGenerator, D2RParams
-from pcbdata.generators.d2r import pad_position
+from pcbdata.generators.d2r.generator import D2RGenerator, D2RParams, pad_position
 from pcbdata.kicad import DrcReport
 from pcbdata.model.board import Board, EdgeArc
 from pcbdata.model.kicad_writer import board_files
-from pcbdata.spec.configs import d2r_config
-from pcbdata.spec.presets import d2r_level, d2r_levels
+from pcbdata.sets.configs import level_config
+from pcbdata.sets.presets import level as preset_level
+from pcbdata.sets.presets import levels as preset_levels
 from pcbdata.testing.sets import write_board
 from tests.generators.d2r_checks import assert_courtyards_apart, assert_inside_outline
 
-LEVELS = sorted(d2r_levels())
+LEVELS = sorted(preset_levels("d2r"))
 # Every outline shape, mounting holes, four layers and a crowded back side on one level.
 SHAPES = {"outline_mix": {"rounded": 0.25, "chamfered": 0.25, "l_shape": 0.25, "notch": 0.25},
           "mounting_hole_fraction": 1.0, "four_layer_fraction": 0.5, "back_side_fraction": 0.8}
@@ -34,19 +34,19 @@ HUGE = {"components_median": 300.0, "components_sigma": 0.0}
 def test_no_board_has_more_missing_connections_than_kicads_drc_can_report():
     assert [b.missing_connections for b in _boards("c", 2, HUGE)] == [499, 499]
     with pytest.raises(UserError, match="max_connections must be from 1 to 499"):
-        d2r_config("c", {"max_connections": 500})
+        level_config("d2r", "c", {"max_connections": 500})
 
 
 def test_parts_that_never_fit_are_a_generation_error_not_a_giant_board():
     from pcbdata.core.errors import GenerationError
 
-    generator = d2r_config("a", {"courtyard_gap_mm": 200.0}).generator()
+    generator = level_config("d2r", "a", {"courtyard_gap_mm": 200.0}).generator()
     with pytest.raises(GenerationError, match="could not place"):
         generator.generate(0, "test", 0)
 
 
 def _boards(level: str, count: int, overrides: dict | None = None) -> list[Board]:
-    generator = d2r_config(level, overrides).generator()
+    generator = level_config("d2r", level, overrides).generator()
     return [generator.generate(0, "test", i).board for i in range(count)]
 
 
@@ -57,7 +57,8 @@ def boards() -> list[Board]:
 
 
 def test_same_seed_split_and_index_give_the_same_bytes():
-    first, second = D2RGenerator(d2r_level("b").params), D2RGenerator(d2r_level("b").params)
+    params = preset_level("d2r", "b").params
+    first, second = D2RGenerator(params), D2RGenerator(params)
     for index in range(3):
         a = board_files(first.generate(7, "validation", index).board)
         assert a == board_files(second.generate(7, "validation", index).board)
@@ -162,9 +163,9 @@ def test_fill_style_coupling_makes_smd_boards_the_dense_ones():
 def test_pad_targets_outside_the_range_are_drawn_again_not_piled_at_its_ends():
     """Clipping a lognormal target to a narrow range piles a third of the boards on its two
     ends; drawing again spreads them over the range, as real tiers are."""
-    generator = d2r_config("a", {"pads_range": [15, 25],
+    generator = level_config("d2r", "a", {"pads_range": [15, 25],
                                  "pads_per_component_sigma": 0.5}).generator()
-    targets = [generator._pad_target(Stream(0, "d2r", 0, "test", i), 6)
+    targets = [generator._pad_target(Stream(0, 3, 0, "test", i), 6)
                for i in range(400)]
     assert 15 <= min(targets) and max(targets) <= 25
     at_ends = sum(t in (15, 25) for t in targets) / len(targets)
@@ -246,7 +247,7 @@ def test_a_power_spread_gives_boards_of_small_and_large_power_nets():
 ])
 def test_bad_parameters_are_rejected_with_the_reason(overrides, message):
     with pytest.raises(UserError, match=message.replace("[", r"\[").replace("(", r"\(")):
-        d2r_config("b", overrides)
+        level_config("d2r", "b", overrides)
 
 
 def test_every_level_and_shape_passes_kicads_drc_but_for_unconnected_items(kicad_pool,

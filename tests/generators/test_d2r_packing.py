@@ -9,11 +9,11 @@ import statistics
 import pytest
 
 from pcbdata.core.rng import Stream
-from pcbdata.generators import footprints as fp
-from pcbdata.generators.d2r_layout import Packer, footprint_box
+from pcbdata.generators.d2r import footprints as fp
+from pcbdata.generators.d2r.layout import Packer, footprint_box
 from pcbdata.model.board import Board, EdgeArc, Part
 from pcbdata.model.kicad_writer import board_files
-from pcbdata.spec.configs import d2r_config
+from pcbdata.sets.configs import level_config
 from tests.generators.d2r_checks import (
     assert_courtyards_apart,
     assert_inside_outline,
@@ -30,7 +30,7 @@ CM2 = 1e14  # nm^2
 
 
 def _boards(level: str, count: int, overrides: dict | None = None) -> list[Board]:
-    generator = d2r_config(level, overrides).generator()
+    generator = level_config("d2r", level, overrides).generator()
     return [generator.generate(0, "test", i).board for i in range(count)]
 
 
@@ -119,7 +119,7 @@ def test_packing_draws_the_same_parts_on_the_same_sides():
 
 
 def test_packed_boards_are_deterministic():
-    first, second = (d2r_config("a", PACKED_SHAPES).generator() for _ in range(2))
+    first, second = (level_config("d2r", "a", PACKED_SHAPES).generator() for _ in range(2))
     for index in range(3):
         assert board_files(first.generate(5, "train", index).board) == board_files(
             second.generate(5, "train", index).board)
@@ -150,7 +150,7 @@ def test_the_packer_puts_each_part_against_the_others():
     no larger than a 2 x 2 arrangement with the gaps."""
     packer = Packer(gap=100_000, grid=50_000, margin=1_000_000, aspect=1.8)
     header = fp.pin_header(1, 4)
-    stream = Stream(0, "d2r", 0, "test", 0)
+    stream = Stream(0, 3, 0, "test", 0)
     parts = [packer.place(stream, header, "F", f"J{i}") for i in range(4)]
     boxes = [_courtyard(p) for p in parts]
     width = max(b[2] for b in boxes) - min(b[0] for b in boxes)
@@ -164,7 +164,7 @@ def test_the_packer_stacks_smd_parts_of_the_two_sides():
     """A back-side SMD part may sit right under a front-side one: the packed block holds both
     in the footprint of one."""
     packer = Packer(gap=100_000, grid=50_000, margin=1_000_000, aspect=1.8)
-    stream = Stream(0, "d2r", 0, "test", 0)
+    stream = Stream(0, 3, 0, "test", 0)
     part = fp.qfn(4, 0.5, True)  # a square courtyard: every rotation covers the same
     front = packer.place(stream, part, "F", "U1")
     back = packer.place(stream, part, "B", "U2")
@@ -178,7 +178,7 @@ def test_the_packer_stacks_smd_parts_of_the_two_sides():
 def test_bad_packing_parameters_are_rejected(overrides, message):
     from pcbdata.core.errors import UserError
     with pytest.raises(UserError, match=message.replace("[", r"\[")):
-        d2r_config("a", overrides)
+        level_config("d2r", "a", overrides)
 
 
 def test_packed_boards_pass_kicads_drc_but_for_unconnected_items(kicad_pool, tmp_path):

@@ -1,4 +1,4 @@
-"""D2R parts (`pcbdata.generators.d2r_parts`): parts drawn by pin count have the pins asked for,
+"""D2R parts (`pcbdata.generators.d2r.parts`): parts drawn by pin count have the pins asked for,
 the top-up by pin count reaches the pins a board's pad target needs, and with it off a level's
 boards stay byte for byte what they were."""
 from __future__ import annotations
@@ -8,8 +8,8 @@ import functools
 import pytest
 
 from pcbdata.core.rng import Stream
-from pcbdata.generators import footprints as fp
-from pcbdata.generators.d2r_parts import (
+from pcbdata.generators.d2r import footprints as fp
+from pcbdata.generators.d2r.parts import (
     DIP_PINS,
     LARGEST_PINS,
     PartDrawer,
@@ -18,8 +18,8 @@ from pcbdata.generators.d2r_parts import (
     pins,
     pins_to_ask,
 )
-from pcbdata.spec.configs import d2r_config
-from pcbdata.spec.presets import d2r_level
+from pcbdata.sets.configs import level_config
+from pcbdata.sets.presets import level
 from tests.generators.d2r_checks import assert_train_boards_unchanged
 
 PASSIVES = {"0603": 1.0}
@@ -27,11 +27,11 @@ PASSIVES = {"0603": 1.0}
 
 @functools.cache
 def _drawer() -> PartDrawer:
-    return PartDrawer(d2r_level("a").params)
+    return PartDrawer(level("d2r", "a").params)
 
 
 def _by_pins(mix: dict[str, float], wanted: int, index: int = 0) -> fp.Template:
-    stream = Stream(0, "d2r", 0, "test", index)
+    stream = Stream(0, 3, 0, "test", index)
     return _drawer().by_pins(stream, Style(mix, PASSIVES), wanted)
 
 
@@ -82,10 +82,10 @@ def test_the_pins_asked_for_let_the_board_reach_what_it_wants_in_one_or_two_part
 
 
 def test_the_top_up_by_pin_count_reaches_the_pins_the_pad_target_needs():
-    generator = d2r_config("a").generator()
+    generator = level_config("d2r", "a").generator()
     assert generator.params.top_up_by_pins == 1.0
     for index in range(80):
-        stream = Stream(0, "d2r", 0, "test", index)
+        stream = Stream(0, 3, 0, "test", index)
         style = Style(dict(generator.params.part_mix), PASSIVES)
         templates = [generator.parts.from_mix(stream, style) for _ in range(2)]
         generator._top_up(stream, style, templates, 25)
@@ -98,7 +98,7 @@ def test_small_boards_come_with_large_parts_when_topped_up_by_pin_count():
     """Real small boards reach their pad count with a large connector or IC: by pin count,
     level a has far more boards of four footprints or fewer than topped up from its mix."""
     def small(by_pins: float) -> int:
-        generator = d2r_config("a", {"top_up_by_pins": by_pins}).generator()
+        generator = level_config("d2r", "a", {"top_up_by_pins": by_pins}).generator()
         return sum(len(generator.generate(0, "test", i).board.parts) <= 4 for i in range(60))
 
     assert small(1.0) > small(0.0) + 4

@@ -85,10 +85,10 @@ def _assert_parity(paths) -> None:
 
 @needs_library
 def test_same_violations_on_routed_d2_test_boards(tmp_path):
-    from pcbdata.generators import D2Generator
-    from pcbdata.spec.presets import d2_level
+    from pcbdata.generators.d2 import D2Generator
+    from pcbdata.sets.presets import level
 
-    level = d2_level("default")
+    level = level("d2", "default")
     generator = D2Generator(level.params)
     paths = [str(write_board(tmp_path / f"board_{i:05d}",
                              with_straight_tracks(generator.generate(level.seed, "test", i).board)))

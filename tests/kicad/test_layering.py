@@ -93,8 +93,8 @@ def test_only_the_kicad_layer_imports_pcbnew_or_starts_processes():
 
 def test_the_analysis_sees_nested_and_from_imports(tmp_path):
     sample = tmp_path / "sample.py"
-    sample.write_text("import os\n\ndef f():\n    from pcbdata.curation.build import is_kept\n"
+    sample.write_text("import os\n\ndef f():\n    from pcbdata.build.d3 import is_kept\n"
                       "    import pcbnew\n")
     found = [module for _, module in _imports(sample)]
-    assert found == ["os", "pcbdata.curation.build", "pcbnew"]
-    assert not _allowed("pcbdata.curation.build", LEAVES)
+    assert found == ["os", "pcbdata.build.d3", "pcbnew"]
+    assert not _allowed("pcbdata.build.d3", LEAVES)

@@ -13,7 +13,7 @@ from pcbdata.generators.d1 import D1Generator, D1Params
 from pcbdata.generators.d2 import D2Generator
 from pcbdata.model import kicad_writer
 from pcbdata.model.manifest import FORMAT, write_manifest
-from pcbdata.spec import presets
+from pcbdata.sets import presets
 
 SIZES = {"train": 4, "validation": 2, "test": 3}
 
@@ -29,7 +29,7 @@ def _write_board(folder: Path, files: dict[str, str]) -> dict[str, str]:
 
 
 def _d2_config(root: Path, sizes: dict[str, int]) -> dict:
-    level = presets.d2_level("default")
+    level = presets.level("d2", "default")
     gen = D2Generator(level.params)
     splits = {}
     for split, count in sizes.items():
@@ -74,7 +74,7 @@ def _d1_config(root: Path, grid: int, sizes: dict[str, int]) -> dict:
 def _d3_config(root: Path, config: str, count: int = 4) -> dict:
     """A D3-shaped config (splits test + full, per-board attribution, one recipe board) made
     from generated boards: the publication code only sees files and manifest entries."""
-    level = presets.d2_level("medium")
+    level = presets.level("d2", "medium")
     gen = D2Generator(level.params)
     full, test = {}, {}
     for index in range(count):
@@ -87,7 +87,7 @@ def _d3_config(root: Path, config: str, count: int = 4) -> dict:
         for split in ("full", "test") if index % 2 == 0 else ("full",):
             entry_files = _write_board(root / config / split / board_id, files)
         facts = inst.facts(2)
-        # the shape of `pcbdata.curation.build`'s manifest entries
+        # the shape of `pcbdata.build.d3`'s manifest entries
         entry = {"files": entry_files, "name": name, "row": index + 1, "pads": facts["n_pads"],
                  "nets": facts["n_nets"], "components": facts["n_components"], "layers": 2,
                  "source_board_sha256": "ab" * 32,

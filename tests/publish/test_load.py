@@ -155,7 +155,7 @@ def test_an_empty_split_verifies_and_loads_as_an_empty_dataset(tmp_path):
     columns."""
     from pcbdata.model.manifest import write_manifest
     from pcbdata.publish import publish_set
-    from pcbdata.publish.verify_set import verify_set
+    from pcbdata.sets.verify import verify_set
     from tests.publish.setbuilder import _d3_config, make_set
 
     manifest = make_set(tmp_path, d2={"test": 2}, d1={"test": 2}, d3=True)

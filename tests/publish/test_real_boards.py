@@ -20,13 +20,13 @@ from pcbdata.publish.real_boards import (
     tier_real_board,
 )
 from pcbdata.resources import resource_path
-from pcbdata.spec.presets import d2r_levels
+from pcbdata.sets.presets import levels
 from tests.helpers import skip_without_snapshot
 
 
 def test_every_level_has_its_tiers_real_board_with_attribution():
     boards = real_boards()
-    for name, level in d2r_levels().items():
+    for name, level in levels("d2r").items():
         board = tier_real_board({"family": "d2r", "level": name})
         assert board is not None and board.tier == level["tier"]
         assert board == boards[level["tier"]]

@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pytest
 
-from pcbdata.builders import SyntheticOptions, build_configs
+from pcbdata.build import SyntheticOptions, build_configs
 from pcbdata.model.manifest import read_manifest
 from pcbdata.publish import verify_published
-from pcbdata.publish.manifests import SUFFIX, VERSION_MARK, compare, read_release
-from pcbdata.spec.configs import get_config
+from pcbdata.sets.configs import get_config
+from pcbdata.sets.releases import SUFFIX, VERSION_MARK, compare, read_release
 
 MANIFESTS = Path(__file__).resolve().parents[2] / "pcbdata" / "resources" / "releases"
 SYNTHETIC_FAMILIES = ("d1", "d2", "d2r")

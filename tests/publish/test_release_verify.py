@@ -15,8 +15,8 @@ from pcbdata.core.errors import UserError
 from pcbdata.core.fsutil import sha256_file
 from pcbdata.model.manifest import read_manifest, write_manifest
 from pcbdata.publish import publish_set
-from pcbdata.publish.manifests import check_release, pinned_release
 from pcbdata.resources import resource_path
+from pcbdata.sets.releases import check_release, pinned_release
 
 EDITED = "d2/test/board_00005"
 
@@ -172,7 +172,7 @@ def test_the_d3_releases_compare_board_by_board():
 def test_an_earlier_d3_release_is_checked_against_its_own_pin():
     """A set built with recipe 1.0.0 (`pcbdata build d3 --recipe d3-1.0.0`) verifies against
     the release of its set version, kept as `d3-b@1.0.0`, not against today's."""
-    from pcbdata.publish.manifests import released_configs
+    from pcbdata.sets.releases import released_configs
 
     old = pinned_release("d3-b", "1.0.0")
     assert old is not None and old.source.endswith("d3-b@1.0.0.json.gz")

@@ -9,7 +9,7 @@ from pathlib import Path
 from pcbdata.cli import main
 from pcbdata.model.manifest import read_manifest, write_manifest
 from pcbdata.publish import publish_set
-from pcbdata.publish.verify_set import verify_set
+from pcbdata.sets.verify import verify_set
 
 
 def _drop_from_manifest(root: Path, config: str, split: str | None = None) -> None:
