@@ -58,6 +58,7 @@ class _LLMBase:
 
     kind = ""
     max_tokens: int | None = None
+    prompt_version = PROMPT_VERSION
 
     def __init__(self, seed: int = 0, **options):
         self.seed = seed
@@ -99,11 +100,11 @@ class _LLMBase:
                 "sampling": {"temperature": options["temperature"],
                              "seed": int(options["seed"] or 0),
                              "max_tokens": options["max_tokens"]},
-                "prompt_version": PROMPT_VERSION}
+                "prompt_version": self.prompt_version}
 
     def llm_record(self) -> dict:
         shown = {k: v for k, v in self.options.items() if k != "api_key_env"}
-        return {"agent": self.kind, "prompt_version": PROMPT_VERSION,
+        return {"agent": self.kind, "prompt_version": self.prompt_version,
                 "options": dict(shown, sampling=self.client.sampling(self.seed)),
                 "accounting": self.client.accounting.numbers(),
                 "latency_s": self.client.accounting.latency_s,
