@@ -83,10 +83,12 @@ class _LLMBase:
         if len(self.faults) < MAX_FAULTS_KEPT:
             self.faults.append({"step": step, "kind": kind, "reason": reason})
 
-    def _ask(self, step: int, messages: list[dict], tools: list[dict] | None) -> dict | None:
-        """The assistant message, or None after a fault (recorded, it ends the episode)."""
+    def _ask(self, step: int, messages: list[dict], tools: list[dict] | None,
+             extra: dict | None = None) -> dict | None:
+        """The assistant message, or None after a fault (recorded, it ends the episode);
+        `extra`: fields added to the request body (`ChatClient.chat`)."""
         try:
-            return self.client.chat(messages, tools, self.seed)
+            return self.client.chat(messages, tools, self.seed, **(extra or {}))
         except ServerFault as fault:
             self._fault(step, fault.kind, fault.reason)
             self.end = f"server fault: {fault.reason}"

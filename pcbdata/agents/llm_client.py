@@ -167,9 +167,12 @@ class ChatClient:
 
     def chat(self, messages: list[dict], tools: list[dict] | None, seed: int,
              **extra) -> dict:
-        """The assistant message of one completion, retried on transient faults."""
+        """The assistant message of one completion, retried on transient faults. `extra`
+        fields are added to the body; an extra field given as None removes that field (e.g.
+        `max_tokens` for a server that wants `max_completion_tokens`)."""
         body: dict = {"model": self.options["model"], "messages": messages,
                       **self.sampling(seed), **extra}
+        body = {key: value for key, value in body.items() if value is not None}
         if tools:
             body.update(tools=tools, tool_choice="auto")
         data = json.dumps(body).encode("utf-8")

@@ -34,10 +34,13 @@ from pcbdata.env.llm.paper_prompts import DIRECT, PAPER_PROMPT_VERSION, PLAN, SY
 #: (auto: the tokenize route, else a request that sends it alone; tokenize; request; off);
 #: `plan_failure`: what a failed plan line does (skip_net: the net's remaining lines are
 #: skipped up to the next net_select; continue); `plan_max_steps`: a cap on replayed lines
-#: (None: the environment's step limit).
+#: (None: the environment's step limit); `extra_body`: fields added to every request's body
+#: (a null removes one the client sends: OpenAI's reasoning models take
+#: `{"max_completion_tokens": 256, "max_tokens": null, "temperature": null}`; vLLM's Qwen3
+#: `{"chat_template_kwargs": {"enable_thinking": false}}`).
 PAPER_DEFAULTS: dict = {"turns": 200, "history": 2, "no_effect": "routing",
                         "require_think": True, "chat_history": False, "system_tokens": "auto",
-                        "plan_failure": "skip_net", "plan_max_steps": None}
+                        "plan_failure": "skip_net", "plan_max_steps": None, "extra_body": {}}
 _CHOICES = {"no_effect": ("routing", "all"), "system_tokens": ("auto", "tokenize", "request",
                                                               "off"),
             "plan_failure": ("skip_net", "continue")}
@@ -59,6 +62,10 @@ def paper_options(options: dict) -> tuple[dict, dict]:
     for name in ("require_think", "chat_history"):
         if not isinstance(merged[name], bool):
             raise UserError(f"--llm-option {name}={merged[name]!r}: true or false")
+    if not isinstance(merged["extra_body"], dict) or {"model", "messages"} & \
+            set(merged["extra_body"]):
+        raise UserError(f"--llm-option extra_body={merged['extra_body']!r}: a JSON object "
+                        f"without model or messages")
     cap = merged["plan_max_steps"]
     if cap is not None and (not isinstance(cap, int) or isinstance(cap, bool) or cap < 1):
         raise UserError(f"--llm-option plan_max_steps={cap!r}: a whole number >= 1")
@@ -114,8 +121,11 @@ class _PaperBase(_LLMBase):
             if how == "tokenize":
                 self.measured_by = f"not measured: {said}"
                 return
+        extra = dict(self.paper["extra_body"], max_tokens=1)
+        if "max_completion_tokens" in extra:
+            extra.update(max_completion_tokens=1, max_tokens=None)
         try:
-            self.client.chat(messages, None, self.seed, max_tokens=1)
+            self.client.chat(messages, None, self.seed, **extra)
         except Exception as fault:  # noqa: BLE001 - ServerFault: the episode goes on
             self.measured_by = f"not measured: the system-only request failed ({fault})"
             return
@@ -130,7 +140,7 @@ class _PaperBase(_LLMBase):
         """One protocol request (no tools), its usage tallied."""
         if self.first_call is None:
             self.first_call = time.perf_counter()
-        message = self._ask(step, messages, None)
+        message = self._ask(step, messages, None, self.paper["extra_body"])
         if message is not None:
             usage = self.client.last_usage
             if usage is not None:

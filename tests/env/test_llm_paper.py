@@ -155,9 +155,19 @@ def test_rollout_on_a_d3a_board(d3_set, tmp_path):
     turns = 24
     recording = record_paper(Path(d3_set), "d3-a", [board], tmp_path, bad=bad, turns=turns)
     runs = tmp_path / "runs"
+    extra = 'extra_body={"chat_template_kwargs": {"enable_thinking": false}, "temperature": null}'
     with PaperReplayServer(recording) as server:
         assert main(_rollout(d3_set, runs, "llm-paper", server.url, "d3-a", "--limit", "1",
-                             "--llm-option", f"turns={turns}")) == 0
+                             "--llm-option", f"turns={turns}", "--llm-option",
+                             "chat_history=true", "--llm-option", extra)) == 0
+        bodies = [r["body"] for r in server.requests]
+        measure = server.measures[0]
+    assert measure["max_tokens"] == 1 and "temperature" not in measure
+    assert all(b["chat_template_kwargs"] == {"enable_thinking": False} and "temperature" not in b
+               for b in bodies)
+    # earlier turns as chat messages: system, the last two (user, assistant) pairs, user
+    assert [len(b["messages"]) for b in bodies[:4]] == [2, 4, 6, 6]
+    assert bodies[2]["messages"][2]["content"] == recording[board]["replies"][0]
     rec = json.loads((runs / board / "0.json").read_text())
     assert rec["reward"] == pytest.approx(recording[board]["reward"], abs=1e-9)
     idle = rec["agent_report"]["idle"]

@@ -120,7 +120,8 @@ def test_protocol_options_and_their_checks():
                                                                    "base_url": "http://x/v1"}
     for bad in ({"turns": 0}, {"history": -1}, {"no_effect": "some"},
                 {"system_tokens": "guess"}, {"chat_history": "yes"},
-                {"plan_failure": "abort"}, {"plan_max_steps": 0}):
+                {"plan_failure": "abort"}, {"plan_max_steps": 0}, {"extra_body": [1]},
+                {"extra_body": {"model": "other"}}):
         with pytest.raises(UserError):
             paper_options(bad)
     assert _name_value("turns=40") == ("turns", 40)
