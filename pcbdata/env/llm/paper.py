@@ -453,7 +453,7 @@ class PaperSession:
             turn.tags.append("[no effect]")
             self.counts["no_effect"] += 1
             wasted = self.last_accepted
-            if (verb in ROUTING_VERBS and wasted is not None and wasted.step == self.turn - 1
+            if (verb in ROUTING_VERBS and wasted is not None
                     and wasted.body.startswith("start_route") and not wasted.tags):
                 wasted.tags.append("[no effect]")
         self.history.append(turn)
