@@ -33,7 +33,7 @@ from pcbdata.env.llm.paper_prompts import DIRECT, PAPER_PROMPT_VERSION, PLAN, SY
 #: fresh system + user pair per turn); `system_tokens`: how the system message is measured
 #: (auto: the tokenize route, else a request that sends it alone; tokenize; request; off);
 #: `plan_failure`: what a failed plan line does (skip_net: the net's remaining lines are
-#: skipped up to the next net_select; continue); `plan_max_steps`: a cap on replayed lines
+#: skipped, but a net_end still releases it; continue); `plan_max_steps`: a cap on replayed lines
 #: (None: the environment's step limit); `extra_body`: fields added to every request's body
 #: (a null removes one the client sends: OpenAI's reasoning models take
 #: `{"max_completion_tokens": 256, "max_tokens": null, "temperature": null}`; vLLM's Qwen3
@@ -237,7 +237,7 @@ class PaperPlanAgent(_PaperBase):
             if any(ended) or (cap is not None and session.turn >= cap):
                 skipped += 1
                 continue
-            if failing and not line.startswith("net_select"):
+            if failing and not line.startswith(("net_select", "net_end")):
                 skipped += 1
                 continue
             reward, *flags, info, outcome = session.step_body(line)

@@ -174,3 +174,27 @@ def test_rollout_on_a_d3a_board(d3_set, tmp_path):
     assert idle["missing_think"] == 1 and idle["number"] == 1 and idle["mask"] >= 1
     assert rec["steps"] <= turns and rec["llm"]["options"]["protocol"]["turns"] == turns
     assert "(board_static (board " in recording[board]["static"]
+
+
+@pytest.mark.parametrize("failure", ["skip_net", "continue"])
+def test_a_failing_plan_line_skips_the_rest_of_its_net(recording, make_env, failure):
+    from pcbdata.agents.llm_paper import PaperPlanAgent
+
+    bodies = list(recording[BOARDS[0]]["bodies"])
+    first_end = bodies.index("net_end")
+    broken = [*bodies[:2], "make_line 1,500 2.000 w", *bodies[2:]]  # after the first start_route
+    plan = {BOARDS[0]: dict(recording[BOARDS[0]], bodies=broken)}
+    env = make_env("d2", drc="terminal")
+    with PaperReplayServer(plan) as server:
+        agent = PaperPlanAgent(seed=0, base_url=server.url, model="replay",
+                               plan_failure=failure)
+        record = agent.episode(env, BOARDS[0], 0, {})
+    report = record["agent_report"]
+    assert report["plan_lines"] == len(broken) and report["idle"]["number"] == 1
+    if failure == "continue":
+        assert report["skipped_lines"] == 0 and record["unconnected"] == 0
+        assert record["reward"] == pytest.approx(recording[BOARDS[0]]["reward"], abs=1e-9)
+    else:  # the first net's remaining lines are not replayed; its net_end releases it
+        assert report["skipped_lines"] == first_end - 2
+        assert record["unconnected"] > 0 and record["steps"] == len(broken) - \
+            report["skipped_lines"]
