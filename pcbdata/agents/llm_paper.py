@@ -25,6 +25,7 @@ from pcbdata.core.sexpr_text import cut_problem
 from pcbdata.core.tree import BOARD_FILE, board_dir
 from pcbdata.env.llm.paper import IDLE_KINDS, PaperSession, plan_board
 from pcbdata.env.llm.paper_prompts import DIRECT, PAPER_PROMPT_VERSION, PLAN, SYSTEM
+from pcbdata.env.llm.text import mm
 
 #: The protocol options and their defaults. `turns`: T, model calls per episode (each one
 #: environment step); `history`: accepted turns shown; `no_effect`: what the [no effect] tag
@@ -34,13 +35,18 @@ from pcbdata.env.llm.paper_prompts import DIRECT, PAPER_PROMPT_VERSION, PLAN, SY
 #: (auto: the tokenize route, else a request that sends it alone; tokenize; request; off);
 #: `plan_failure`: what a failed plan line does (skip_net: the net's remaining lines are
 #: skipped, but a net_end still releases it; continue); `plan_max_steps`: a cap on replayed lines
-#: (None: the environment's step limit); `extra_body`: fields added to every request's body
+#: (None: the environment's step limit); `board_first`: board_static before the prompt in
+#: the system message (the paper does not say where it sits; default after);
+#: `direct_repair`: fill a missing width of an engine-free segment, size, drill or layers of
+#: a via from its net's rules (the paper does not say; default: items as written);
+#: `extra_body`: fields added to every request's body
 #: (a null removes one the client sends: OpenAI's reasoning models take
 #: `{"max_completion_tokens": 256, "max_tokens": null, "temperature": null}`; vLLM's Qwen3
 #: `{"chat_template_kwargs": {"enable_thinking": false}}`).
 PAPER_DEFAULTS: dict = {"turns": 200, "history": 2, "no_effect": "routing",
                         "require_think": True, "chat_history": False, "system_tokens": "auto",
-                        "plan_failure": "skip_net", "plan_max_steps": None, "extra_body": {}}
+                        "plan_failure": "skip_net", "plan_max_steps": None,
+                        "board_first": False, "direct_repair": False, "extra_body": {}}
 _CHOICES = {"no_effect": ("routing", "all"), "system_tokens": ("auto", "tokenize", "request",
                                                               "off"),
             "plan_failure": ("skip_net", "continue")}
@@ -59,7 +65,7 @@ def paper_options(options: dict) -> tuple[dict, dict]:
                 or merged[name] < (1 if name == "turns" else 0):
             raise UserError(f"--llm-option {name}={merged[name]!r}: a whole number "
                             f"(turns >= 1, history >= 0)")
-    for name in ("require_think", "chat_history"):
+    for name in ("require_think", "chat_history", "board_first", "direct_repair"):
         if not isinstance(merged[name], bool):
             raise UserError(f"--llm-option {name}={merged[name]!r}: true or false")
     if not isinstance(merged["extra_body"], dict) or {"model", "messages"} & \
@@ -174,7 +180,8 @@ class PaperAgent(_PaperBase):
         session = PaperSession(env, self.paper["history"], self.paper["no_effect"],
                                self.paper["require_think"])
         static, user, info = session.reset(seed=seed, options={"board_id": board_id})
-        system = SYSTEM + "\n" + static
+        system = static + "\n\n" + SYSTEM if self.paper["board_first"] else \
+            SYSTEM + "\n" + static
         self._measure(system)
         exchanges: deque[dict] = deque(maxlen=2 * self.paper["history"])
         total, ended = 0.0, (False, False)
@@ -293,6 +300,43 @@ def off_octilinear(items: list[str]) -> int:
     return count
 
 
+def net_rules(board: str, session: PaperSession) -> dict[str, tuple[str, str, str]]:
+    """Net code (as the board file writes it) -> (track width, via diameter, via drill) in mm,
+    from the episode's observation."""
+    rows = session.obs["board_static"]["nets"]
+    out = {}
+    for code, name in re.findall(r'^\s*\(net (\d+) "((?:[^"\\]|\\.)*)"\)\s*$', board,
+                                 re.MULTILINE):
+        index = session.ids.by_name.get(name)
+        if index is not None:
+            out[code] = (mm(rows[index][3]), mm(rows[index][4]), mm(rows[index][5]))
+    return out
+
+
+def repair_items(items: list[str], rules: dict[str, tuple[str, str, str]]) \
+        -> tuple[list[str], int]:
+    """Items with a missing `(width ...)` (segments) or `(size ...)`, `(drill ...)`,
+    `(layers ...)` (vias) filled from their net's rules; how many changed. An item without a
+    known `(net CODE)` is left as written."""
+    out, changed = [], 0
+    for item in items:
+        code = re.search(r"\(net (\d+)\)", item)
+        width, size, drill = rules.get(code.group(1), ("", "", "")) if code else ("", "", "")
+        added = []
+        if width and item.startswith("(segment") and "(width " not in item:
+            added.append(f"(width {width})")
+        if size and item.startswith("(via"):
+            added += [f"({k} {v})" for k, v in (("size", size), ("drill", drill))
+                      if f"({k} " not in item]
+            if "(layers " not in item:
+                added.append('(layers "F.Cu" "B.Cu")')
+        if added:
+            item = item[:-1].rstrip() + " " + " ".join(added) + ")"
+            changed += 1
+        out.append(item)
+    return out, changed
+
+
 class PaperDirectAgent(_PaperBase):
     """Engine-free (open loop): one request; the reply's `(segment ...)` and `(via ...)` items
     are inserted into the instance's board file as written (`--agent llm-paper-direct`).
@@ -316,6 +360,9 @@ class PaperDirectAgent(_PaperBase):
         items, dropped = paper_items(content if isinstance(content, str) else "")
         if message is not None and not items:
             self.client.accounting.parse_failures += 1
+        repaired = 0
+        if self.paper["direct_repair"]:
+            items, repaired = repair_items(items, net_rules(board, session))
         self.board_text = with_items(board, items)
         problem = cut_problem(self.board_text.encode("utf-8"))
         if self.end is None:
@@ -325,5 +372,6 @@ class PaperDirectAgent(_PaperBase):
             "items": len(items), "segments": sum(i.startswith("(segment") for i in items),
             "vias": sum(i.startswith("(via") for i in items), "dropped_items": dropped,
             "off_octilinear_segments": off_octilinear(items), "text_problem": problem,
+            "repaired_items": repaired,
             "cut_by_max_tokens": self.cut_by_max_tokens}
         return record

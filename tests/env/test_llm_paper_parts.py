@@ -14,6 +14,7 @@ from pcbdata.agents.llm_paper import (
     paper_items,
     paper_options,
     plan_lines,
+    repair_items,
 )
 from pcbdata.cli.rollout import _name_value, llm_options
 from pcbdata.core.errors import UserError
@@ -121,7 +122,8 @@ def test_protocol_options_and_their_checks():
     for bad in ({"turns": 0}, {"history": -1}, {"no_effect": "some"},
                 {"system_tokens": "guess"}, {"chat_history": "yes"},
                 {"plan_failure": "abort"}, {"plan_max_steps": 0}, {"extra_body": [1]},
-                {"extra_body": {"model": "other"}}):
+                {"extra_body": {"model": "other"}}, {"board_first": 1},
+                {"direct_repair": "yes"}):
         with pytest.raises(UserError):
             paper_options(bad)
     assert _name_value("turns=40") == ("turns", 40)
@@ -163,3 +165,14 @@ def test_the_system_message_is_measured_once(tokenize, how, measured_by):
         assert split["total_tokens"] == 480 and split["response_tokens"] == 30
     else:
         assert split["system_tokens"] is None and split["user_tokens"] is None
+
+
+def test_engine_free_items_repaired_from_their_nets_rules():
+    rules = {"1": ("0.250", "0.600", "0.300")}
+    items = ['(segment (start 0 0) (end 1 0) (layer "F.Cu") (net 1))',
+             '(segment (start 0 0) (end 1 0) (width 0.2) (layer "F.Cu") (net 1))',
+             "(via (at 1 0) (net 1))", '(segment (start 0 0) (end 1 0) (layer "F.Cu") (net 7))']
+    out, changed = repair_items(items, rules)
+    assert changed == 2 and out[1:] == [items[1], out[2], items[3]]
+    assert out[0] == '(segment (start 0 0) (end 1 0) (layer "F.Cu") (net 1) (width 0.250))'
+    assert out[2] == '(via (at 1 0) (net 1) (size 0.600) (drill 0.300) (layers "F.Cu" "B.Cu"))'
