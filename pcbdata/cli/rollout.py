@@ -84,7 +84,8 @@ def register(parser) -> None:
                             "llm-paper-plan, llm-paper-direct), repeatable: turns=200, "
                             "history=2, no_effect=routing|all, require_think=true, "
                             "chat_history=false, system_tokens=auto|tokenize|request|off, "
-                            "plan_failure=skip_net|continue, plan_max_steps=N "
+                            "plan_failure=skip_net|continue, plan_max_steps=N, "
+                            "board_first=false, direct_repair=false, extra_body={...} "
                             "(docs/env_llm.md)")
     _executor_options.add(parser)
     parser.set_defaults(run=run)
