@@ -58,6 +58,7 @@ class _LLMBase:
 
     kind = ""
     max_tokens: int | None = None
+    prompt_version = PROMPT_VERSION
 
     def __init__(self, seed: int = 0, **options):
         self.seed = seed
@@ -82,10 +83,12 @@ class _LLMBase:
         if len(self.faults) < MAX_FAULTS_KEPT:
             self.faults.append({"step": step, "kind": kind, "reason": reason})
 
-    def _ask(self, step: int, messages: list[dict], tools: list[dict] | None) -> dict | None:
-        """The assistant message, or None after a fault (recorded, it ends the episode)."""
+    def _ask(self, step: int, messages: list[dict], tools: list[dict] | None,
+             extra: dict | None = None) -> dict | None:
+        """The assistant message, or None after a fault (recorded, it ends the episode);
+        `extra`: fields added to the request body (`ChatClient.chat`)."""
         try:
-            return self.client.chat(messages, tools, self.seed)
+            return self.client.chat(messages, tools, self.seed, **(extra or {}))
         except ServerFault as fault:
             self._fault(step, fault.kind, fault.reason)
             self.end = f"server fault: {fault.reason}"
@@ -99,11 +102,11 @@ class _LLMBase:
                 "sampling": {"temperature": options["temperature"],
                              "seed": int(options["seed"] or 0),
                              "max_tokens": options["max_tokens"]},
-                "prompt_version": PROMPT_VERSION}
+                "prompt_version": self.prompt_version}
 
     def llm_record(self) -> dict:
         shown = {k: v for k, v in self.options.items() if k != "api_key_env"}
-        return {"agent": self.kind, "prompt_version": PROMPT_VERSION,
+        return {"agent": self.kind, "prompt_version": self.prompt_version,
                 "options": dict(shown, sampling=self.client.sampling(self.seed)),
                 "accounting": self.client.accounting.numbers(),
                 "latency_s": self.client.accounting.latency_s,

@@ -103,6 +103,8 @@ class ChatClient:
         self.base = str(self.options["base_url"]).rstrip("/")
         self.sleep = sleep
         self.accounting = Accounting()
+        self.last_usage: dict | None = None  # the last answer's usage (None: it had none)
+        self.last_finish_reason: str | None = None
 
     def _headers(self) -> dict:
         headers = {"Content-Type": "application/json", "Accept": "application/json"}
@@ -165,9 +167,12 @@ class ChatClient:
 
     def chat(self, messages: list[dict], tools: list[dict] | None, seed: int,
              **extra) -> dict:
-        """The assistant message of one completion, retried on transient faults."""
+        """The assistant message of one completion, retried on transient faults. `extra`
+        fields are added to the body; an extra field given as None removes that field (e.g.
+        `max_tokens` for a server that wants `max_completion_tokens`)."""
         body: dict = {"model": self.options["model"], "messages": messages,
                       **self.sampling(seed), **extra}
+        body = {key: value for key, value in body.items() if value is not None}
         if tools:
             body.update(tools=tools, tool_choice="auto")
         data = json.dumps(body).encode("utf-8")
@@ -220,12 +225,47 @@ class ChatClient:
             raise _Transient("malformed", f"malformed answer ({type(exc).__name__}: "
                                           f"{str(exc)[:60]}; body starts {shown!r})") from None
         usage = answer.get("usage") if isinstance(answer, dict) else None
+        reason = answer["choices"][0].get("finish_reason")
+        self.last_finish_reason = reason if isinstance(reason, str) else None
         if isinstance(usage, dict):
-            self.accounting.prompt_tokens += _count(usage.get("prompt_tokens"))
-            self.accounting.completion_tokens += _count(usage.get("completion_tokens"))
+            self.last_usage = {"prompt_tokens": _count(usage.get("prompt_tokens")),
+                               "completion_tokens": _count(usage.get("completion_tokens"))}
+            self.accounting.prompt_tokens += self.last_usage["prompt_tokens"]
+            self.accounting.completion_tokens += self.last_usage["completion_tokens"]
         else:
+            self.last_usage = None
             self.accounting.usage_missing += 1
         return message
+
+    def tokenize(self, messages: list[dict]) -> tuple[int | None, str]:
+        """(token count, how it was found) of `messages` from the server's tokenize route,
+        outside the API root (`<base without /v1>/tokenize`): vLLM's takes the messages and
+        counts them with the chat template (`count`); llama-server's takes text (`content`,
+        the messages' contents joined: no template tokens) and lists its `tokens`. (None,
+        why) when the server has no such route (Ollama) or answers otherwise. Not counted in
+        `accounting` (no completion)."""
+        root = self.base.removesuffix("/v1")
+        for body in ({"model": self.options["model"], "messages": messages,
+                      "add_generation_prompt": False},
+                     {"content": "\n".join(str(m.get("content") or "") for m in messages)}):
+            answer = self._json_post(root + "/tokenize", body)
+            if isinstance(answer, dict) and "messages" in body and _count(answer.get("count")):
+                return _count(answer["count"]), "tokenize route (messages, chat template)"
+            if isinstance(answer, dict) and isinstance(answer.get("tokens"), list) \
+                    and "content" in body:
+                return len(answer["tokens"]), "tokenize route (text, no chat template)"
+        return None, f"no tokenize route at {root}/tokenize"
+
+    def _json_post(self, url: str, body: dict):
+        """The JSON answer of one POST, or None on any failure (no retry)."""
+        request = urllib.request.Request(url, data=json.dumps(body).encode("utf-8"),
+                                         headers=self._headers(), method="POST")
+        try:
+            with urllib.request.urlopen(request, timeout=min(10.0, self.options["timeout_s"])) \
+                    as resp:
+                return json.loads(resp.read().decode("utf-8"))
+        except (urllib.error.URLError, OSError, http.client.HTTPException, ValueError):
+            return None
 
 
 def _count(value) -> int:

@@ -46,3 +46,27 @@ class ScriptedModel:
             return STOP
         self.calls += 1
         return as_reply(action, self.wrapper.net_names, self.style, self.calls)
+
+
+class PaperScriptedModel:
+    """The scripted baseline speaking the paper's protocol (`pcbdata.env.llm.paper`): `reply =
+    model()` for the session's current step, `<think>...</think><action>BODY</action>` with
+    the action's point in mm (three decimals); None when the agent is done. `bad` maps a
+    step number to a reply sent instead (a malformed or refused one: tests, the replay
+    recordings); the agent is not asked at those steps."""
+
+    def __init__(self, session, seed: int = 0, bad: dict[int, str] | None = None):
+        self.session, self.bad = session, dict(bad or {})
+        self.agent = ScriptedAgent(seed=seed)
+
+    def __call__(self) -> str | None:
+        from pcbdata.env.llm.paper import action_body
+
+        step = self.session.turn + 1
+        if step in self.bad:
+            return self.bad[step]
+        action = self.agent.act(self.session.obs, self.session.info)
+        if self.agent.done:
+            return None
+        body = action_body(action, self.session.ids, self.session.obs)
+        return f"<think>scripted step {step}</think><action>{body}</action>"

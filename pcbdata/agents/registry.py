@@ -18,15 +18,19 @@ AGENTS = {"scripted": "pcbdata.agents.scripted:ScriptedAgent",
           "llm": "pcbdata.agents.llm_agents:LLMAgent",
           "llm-plan": "pcbdata.agents.llm_agents:PlanAgent",
           "llm-direct": "pcbdata.agents.llm_agents:DirectAgent",
+          "llm-paper": "pcbdata.agents.llm_paper:PaperAgent",
+          "llm-paper-plan": "pcbdata.agents.llm_paper:PaperPlanAgent",
+          "llm-paper-direct": "pcbdata.agents.llm_paper:PaperDirectAgent",
           "policy": "pcbdata.learn.agent:PolicyAgent",
           "negotiated": "pcbdata.agents.negotiated:NegotiatedAgent"}
 
 
 def make_agent(spec: str, seed: int, options: dict | None = None):
     """An agent by name (`AGENTS`: scripted, scripted-shove, random, d1, llm, llm-plan,
-    llm-direct, policy, negotiated), `policy:CHECKPOINT` (the learned router with another
-    checkpoint) or `module:Class`; seeded when it takes one; `options` (plain data, e.g. a
-    language model's server and sampling) are passed as keyword arguments."""
+    llm-direct, llm-paper, llm-paper-plan, llm-paper-direct, policy, negotiated),
+    `policy:CHECKPOINT` (the learned router with another checkpoint) or `module:Class`;
+    seeded when it takes one; `options` (plain data, e.g. a language model's server and
+    sampling) are passed as keyword arguments."""
     if spec.startswith("policy:"):
         return _policy_agent(spec.partition(":")[2], seed)
     ref = AGENTS.get(spec, spec)

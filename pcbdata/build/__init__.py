@@ -23,10 +23,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from pcbdata.core.errors import UserError
-from pcbdata.core.fsutil import output_folder
-from pcbdata.executors import Executor, resolve
-from pcbdata.sets.configs import SYNTHETIC_SPLITS, ConfigSpec, d1_config, level_config
+from pcbdata.build.reference import ReferencePlan
 from pcbdata.build.synthetic import (
     BuildSummary,
     ConfigInfo,
@@ -35,7 +32,10 @@ from pcbdata.build.synthetic import (
     check_sample,
     locked_root,
 )
-from pcbdata.build.reference import ReferencePlan
+from pcbdata.core.errors import UserError
+from pcbdata.core.fsutil import output_folder
+from pcbdata.executors import Executor, resolve
+from pcbdata.sets.configs import SYNTHETIC_SPLITS, ConfigSpec, d1_config, level_config
 
 Log = Callable[[str], None]
 # Board ids have five digits (`board_00000` .. `board_99999`) and sort in index order only

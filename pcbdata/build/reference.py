@@ -24,6 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pcbdata import __version__
+from pcbdata.build.progress import Progress
 from pcbdata.core.hashing import sha256_bytes, sha256_file
 from pcbdata.core.textio import canonical_json
 from pcbdata.core.tree import (
@@ -34,7 +35,6 @@ from pcbdata.core.tree import (
     reference_log_path,
 )
 from pcbdata.executors import TaskPool
-from pcbdata.build.progress import Progress
 
 ROUTED = "routed"
 NOT_COMPLETED = "not_completed"

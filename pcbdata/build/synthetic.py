@@ -20,6 +20,9 @@ from functools import partial
 from pathlib import Path
 
 from pcbdata import __version__
+from pcbdata.build import reference as reference_routing
+from pcbdata.build.progress import Progress
+from pcbdata.build.reference import ReferencePlan
 from pcbdata.core.errors import EngineError, GenerationError, UserError, ValidationError
 from pcbdata.core.fsutil import (
     PROBE_PREFIX,
@@ -49,9 +52,6 @@ from pcbdata.generators.families import family
 from pcbdata.kicad.drc_report import UNCONNECTED_LIST_CAP, DrcReport
 from pcbdata.model.kicad_writer import board_files
 from pcbdata.model.manifest import FORMAT, merge_configs, write_manifest
-from pcbdata.build import reference as reference_routing
-from pcbdata.build.progress import Progress
-from pcbdata.build.reference import ReferencePlan
 
 STATE_DIR = SYNTHETIC_STATE_DIR
 _CHUNK = 128
@@ -442,7 +442,8 @@ def _write_manifest(root: Path, jobs: list[SplitJob], configs: dict[str, ConfigI
         info = configs[job.config]
         config = built.setdefault(job.config, {
             "family": info.family, "set_version": info.set_version, "seed": info.seed,
-            "seed_scheme": family(info.family).seed_scheme, "parameters": info.parameters, **info.extra,
+            "seed_scheme": family(info.family).seed_scheme, "parameters": info.parameters,
+            **info.extra,
             "splits": {},
         })
         boards = {}

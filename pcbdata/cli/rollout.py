@@ -8,7 +8,7 @@ from pcbdata.cli import _executor_options
 
 VERB = "rollout"
 HELP = ("route a board set with an agent (scripted, scripted-shove, negotiated, d1, random, llm, "
-        "llm-plan, llm-direct, module:Class)")
+        "llm-plan, llm-direct, llm-paper, llm-paper-plan, llm-paper-direct, module:Class)")
 #: The language-model options: flag -> (option name of pcbdata.agents.llm_client, type).
 LLM_FLAGS = {"--base-url": ("base_url", str), "--model": ("model", str),
              "--api-key-env": ("api_key_env", str), "--temperature": ("temperature", float),
@@ -28,7 +28,9 @@ LLM_HELP = {
     "--temperature": "sampling temperature (default: 0)",
     "--llm-seed": "sampling seed offset: rollout k sends seed N + k (default: 0)",
     "--max-tokens": "completion token limit per request (default: 512 for llm, 8192 for "
-                    "llm-plan, 16384 for llm-direct)",
+                    "llm-plan, 16384 for llm-direct; llm-paper 256, the paper's cap for a model "
+                    "with hidden reasoning: give 512 for one without; llm-paper-plan 8192, "
+                    "llm-paper-direct 16384)",
     "--request-timeout": "seconds per request (default: 120)",
     "--max-retries": "retries of a request after a connection error, time-out, HTTP 429 or "
                      "5xx or a malformed answer (default: 4)",
@@ -47,7 +49,10 @@ def register(parser) -> None:
                              "fails), d1 (D1 boards: lattice plan with rip-up and reroute), "
                              "random, llm (a language model, one request per step), llm-plan "
                              "(one request: the whole action sequence), llm-direct (one "
-                             "request: the copper as .kicad_pcb items), policy (the shipped "
+                             "request: the copper as .kicad_pcb items), llm-paper, "
+                             "llm-paper-plan, llm-paper-direct (the same three in the paper's "
+                             "protocol: free coordinates, <think>/<action> replies), "
+                             "policy (the shipped "
                              "learned router; policy:CHECKPOINT for another, docs/learn.md), "
                              "negotiated (plans every connection at once with rip-up and "
                              "reroute, then lays the plan), or module:Class with act(obs, info)")
@@ -67,11 +72,21 @@ def register(parser) -> None:
                         help="wall-time limit of one rollout in its worker (default: 3600; a "
                              "slow language model may need more: the rollout is otherwise "
                              "reported failed and left pending)")
-    group = parser.add_argument_group("language models (--agent llm, llm-plan, llm-direct; "
+    group = parser.add_argument_group("language models (--agent llm, llm-plan, llm-direct, "
+                                      "llm-paper, llm-paper-plan, llm-paper-direct; "
                                       "docs/env_llm.md)")
     for flag, (dest, kind) in LLM_FLAGS.items():
         group.add_argument(flag, dest=f"llm_{dest}", type=kind, help=LLM_HELP[flag],
                            metavar=METAVARS.get(flag, {int: "N", float: "X"}.get(kind, "TEXT")))
+    group.add_argument("--llm-option", dest="llm_protocol", action="append", default=[],
+                       metavar="NAME=VALUE",
+                       help="a protocol option of the paper's agents (llm-paper, "
+                            "llm-paper-plan, llm-paper-direct), repeatable: turns=200, "
+                            "history=2, no_effect=routing|all, require_think=true, "
+                            "chat_history=false, system_tokens=auto|tokenize|request|off, "
+                            "plan_failure=skip_net|continue, plan_max_steps=N, "
+                            "board_first=false, direct_repair=false, extra_body={...} "
+                            "(docs/env_llm.md)")
     _executor_options.add(parser)
     parser.set_defaults(run=run)
 
@@ -82,12 +97,32 @@ def llm_options(args) -> dict | None:
 
     given = {dest: getattr(args, f"llm_{dest}") for dest, _ in LLM_FLAGS.values()
              if getattr(args, f"llm_{dest}") is not None}
+    protocol = [_name_value(text) for text in getattr(args, "llm_protocol", None) or []]
+    if protocol and not args.agent.startswith("llm-paper"):
+        raise UserError("--llm-option is for the paper's agents (llm-paper, llm-paper-plan, "
+                        "llm-paper-direct)")
+    given.update(protocol)
     if not args.agent.startswith("llm") and not given:
         return None
     env_name = given.get("api_key_env")
     if env_name is not None and not os.environ.get(env_name):
         raise UserError(f"--api-key-env {env_name}: that environment variable is not set")
     return given
+
+
+def _name_value(text: str) -> tuple[str, object]:
+    """NAME=VALUE with VALUE read as JSON when it is (true, 2, null), else as text."""
+    import json
+
+    from pcbdata.core.errors import UserError
+
+    name, sep, value = text.partition("=")
+    if not sep or not name.strip():
+        raise UserError(f"--llm-option {text!r}: use NAME=VALUE")
+    try:
+        return name.strip(), json.loads(value)
+    except ValueError:
+        return name.strip(), value
 
 
 def run(args) -> int:

@@ -273,11 +273,13 @@ class RoutingEnv(gym.Env):
     def _point_masked(self, a) -> str | None:
         """Why a free-coordinate action cannot be taken (None: it can)."""
         name, phase = ACTION_TYPES[a.type], masks.phase_of(self._net, self._head)
-        wanted = {START_ROUTE: NET, MAKE_LINE: ROUTING, MAKE_VIA: ROUTING}
+        # A start_route by coordinates may also move the head while routing (the paper's
+        # protocol re-anchors it after a via, or on the pad a line reached).
+        wanted = {START_ROUTE: (NET, ROUTING), MAKE_LINE: (ROUTING,), MAKE_VIA: (ROUTING,)}
         if a.type not in wanted:
             return f"{name} takes no x, y (the free-coordinate form is for start_route, " \
                    f"make_line and make_via)"
-        if phase != wanted[a.type]:
+        if phase not in wanted[a.type]:
             return f"{name} is masked in phase {PHASES[phase]}"
         if a.layer is not None and a.layer >= len(self.static.layers):
             return f"{name}: layer {a.layer} out of range [0, {len(self.static.layers)})"

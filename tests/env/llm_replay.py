@@ -187,6 +187,10 @@ def _handler(server: ReplayServer):
 
         def do_POST(self):
             length = int(self.headers.get("Content-Length", 0))
+            tokenize = getattr(server, "tokenize", None)
+            if self.path == "/tokenize" and tokenize is not None and 0 < length <= MAX_BODY:
+                self._send(*tokenize(json.loads(self.rfile.read(length))))
+                return
             if self.path != "/v1/chat/completions" or not 0 < length <= MAX_BODY:
                 self._send(404, {"error": "not found"})
                 return
