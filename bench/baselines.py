@@ -12,8 +12,15 @@ published rows of `bench/published.json` (SPEC section 7.5), nothing typed by ha
     python bench/baselines.py run SET --config d3-b --method scripted --rollouts 5 [--work DIR]
     python bench/baselines.py run SET --config d3-c --method freeroute --rollouts 1
     python bench/baselines.py run SET --config d3-c --method reference
-    python bench/baselines.py table [--write README.md]
+    python bench/baselines.py run SET --config d2-hard --method scripted --rollouts 1 --limit 64
+    python bench/baselines.py noise SET --config d2 --method scripted --repeats 5 --limit 32
+    python bench/baselines.py table [--write README.md]    # and the levels table, docs/sets.md
     python bench/baselines.py collect --work DIR   # every record's results.json, bench/results/
+
+`run` takes any config a set holds: the README's cells (D2, D3-A/B/C), D1 grids and the levels of
+D2 and D2R (`levels_table`, written into docs/sets.md). `noise` runs one cell `--repeats` times
+into fresh folders and records the spread of the time per episode between repeats (the noise
+floor of the timing columns), `bench/results/noise/<config>__<method>.json`.
 """
 from __future__ import annotations
 
@@ -63,32 +70,50 @@ def _times(runs: Path) -> list[float]:
 
 
 def run(args) -> Path:
+    work = Path(args.work) / record_name(args.config, args.method, args.limit)
+    record = measure(args, work)
+    RECORDS.mkdir(parents=True, exist_ok=True)
+    out = RECORDS / f"{record_name(args.config, args.method, args.limit)}.json"
+    out.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
+    print(f"wrote {out}", file=sys.stderr)
+    return out
+
+
+def record_name(config: str, method: str, limit: int | None) -> str:
+    """`<config>__<method>`, with `__first<N>` for a run on the first N test boards."""
+    return f"{config}__{method}" + (f"__first{limit}" if limit else "")
+
+
+def measure(args, work: Path) -> dict:
+    """Routes (or takes the reference), scores, and returns the record of one cell."""
     from _measure import machine
 
-    work = Path(args.work) / f"{args.config}__{args.method}"
     runs, report = work / "runs", work / "report"
     started, load_before = datetime.now(UTC).isoformat(timespec="minutes"), _load()
     common = [str(args.set), "--config", args.config, "--split", "test"]
+    limit = ["--limit", str(args.limit)] if args.limit else []
     commands = []
     k = 1 if args.method == "reference" else args.rollouts
     if args.method == "reference":
         commands.append(pcbdata("eval", *common, "--reference", "--out", str(report),
-                                "--workers", str(args.eval_workers)))
+                                "--workers", str(args.eval_workers), *limit))
     else:
         if args.method in ROUTERS:
             commands.append(pcbdata("route", *common, "--router", args.method, "--rollouts",
-                                    str(k), "--out", str(runs), "--workers", str(args.workers)))
+                                    str(k), "--out", str(runs), "--workers", str(args.workers),
+                                    *limit))
         else:
             commands.append(pcbdata("rollout", *common, "--agent", args.method, "--rollouts",
                                     str(k), "--drc", args.drc, "--out", str(runs), "--workers",
-                                    str(args.workers)))
+                                    str(args.workers), *limit))
         commands.append(pcbdata("eval", *common, "--runs", str(runs), "--k", str(k), "--out",
                                 str(report), "--workers", str(args.eval_workers),
-                                "--name", args.method))
+                                "--name", args.method, *limit))
     summary = json.loads((report / "summary.json").read_text())
     times = _times(runs) if runs.is_dir() else []
-    record = {
+    return {
         "config": args.config, "split": "test", "method": args.method, "k": k,
+        "limit": args.limit,
         "drc": None if args.method in (*ROUTERS, "reference") else args.drc,
         "commands": commands, "machine": machine(), "started": started,
         "finished": datetime.now(UTC).isoformat(timespec="minutes"),
@@ -102,11 +127,40 @@ def run(args) -> Path:
             "mean": statistics.fmean(times), "median": statistics.median(times),
             "max": max(times), "n": len(times)},
     }
-    RECORDS.mkdir(parents=True, exist_ok=True)
-    out = RECORDS / f"{args.config}__{args.method}.json"
+
+
+def noise(args) -> Path:
+    """One cell measured `--repeats` times, each into a fresh folder (nothing reused): the
+    spread of the time per episode between repeats is the timing columns' noise floor."""
+    repeats = []
+    for i in range(args.repeats):
+        name = record_name(args.config, args.method, args.limit)
+        work = Path(args.work) / "noise" / name / f"repeat-{i}"
+        if work.exists():
+            import shutil
+
+            shutil.rmtree(work)
+        repeats.append(measure(args, work))
+    medians = [r["time_s"]["median"] for r in repeats]
+    means = [r["time_s"]["mean"] for r in repeats]
+    record = {"config": args.config, "method": args.method, "k": repeats[0]["k"],
+              "limit": args.limit, "repeats": repeats,
+              "spread": {name: _spread(values) for name, values in
+                         (("median_s", medians), ("mean_s", means))},
+              "figures_identical": len({json.dumps(r["figures"], sort_keys=True)
+                                        for r in repeats}) == 1}
+    out = RESULTS / "noise" / f"{record_name(args.config, args.method, args.limit)}.json"
+    out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(record, indent=1, sort_keys=True) + "\n")
-    print(f"wrote {out}", file=sys.stderr)
+    print(f"wrote {out}: median s {record['spread']['median_s']}", file=sys.stderr)
     return out
+
+
+def _spread(values: list[float]) -> dict:
+    mean = statistics.fmean(values)
+    return {"values": values, "mean": mean, "std": statistics.stdev(values),
+            "min": min(values), "max": max(values),
+            "relative_range": (max(values) - min(values)) / mean if mean else None}
 
 
 def collect(args) -> None:
@@ -145,7 +199,8 @@ def table() -> str:
     for method, label in METHODS.items():
         cells = []
         for config in SPLITS:
-            found = [r for r in records if r["config"] == config and r["method"] == method]
+            found = [r for r in records if r["config"] == config and r["method"] == method
+                     and not _is_level(r)]
             at = "" if not found or method == "reference" else f" @{found[0]['k']}"
             cells.append(f"{_cell(found[0])}{at}" if found else "-")
         if any(c != "-" for c in cells):
@@ -157,19 +212,52 @@ def table() -> str:
     return "\n".join(lines) + "\n"
 
 
+#: The levels table (docs/sets.md): scripted @1 on the first 64 test boards of every D2 and
+#: D2R level, and the D1 grids.
+
+def _is_level(record: dict) -> bool:
+    """A record of the levels table: a run on the first N boards, or of a D1 grid."""
+    return bool(record.get("limit")) or record["config"].split("-")[0] == "d1"
+
+
+def levels_table() -> str:
+    """CP %, Pot., Rout., mean (median) s per episode, DRV of each level record, in the
+    registry's order of configs, with its boards and k."""
+    sys.path.insert(0, str(REPO))
+    from pcbdata.sets.configs import order_key
+
+    records = [json.loads(p.read_text()) for p in sorted(RECORDS.glob("*.json"))]
+    records = sorted((r for r in records if _is_level(r)),
+                     key=lambda r: (order_key(r["config"]), r["method"]))
+    lines = ["| config | method | boards | CP % / Pot. / Rout. / mean (median) s | DRV |",
+             "| --- | --- | --- | --- | --- |"]
+    for r in records:
+        lines.append(f"| `{r['config']}` | `{r['method']}` @{r['k']} | {r['n_boards']} | "
+                     f"{_cell(r)} | {r['figures']['drv']:.2f} |")
+    return "\n".join(lines) + "\n"
+
+
 BEGIN, END = "<!-- baselines table: begin -->", "<!-- baselines table: end -->"
+LEVELS_BEGIN, LEVELS_END = "<!-- levels table: begin -->", "<!-- levels table: end -->"
 
 
-def readme_table(text: str) -> str:
-    """The table between the README's markers."""
-    return text.split(BEGIN, 1)[1].split(END, 1)[0].strip("\n") + "\n"
+def readme_table(text: str, begin: str = BEGIN, end: str = END) -> str:
+    """The table between a document's markers."""
+    return text.split(begin, 1)[1].split(end, 1)[0].strip("\n") + "\n"
+
+
+def write_between(path: Path, body: str, begin: str = BEGIN, end: str = END) -> None:
+    text = path.read_text(encoding="utf-8")
+    head, rest = text.split(begin, 1)
+    tail = rest.split(end, 1)[1]
+    path.write_text(f"{head}{begin}\n{body}{end}{tail}", encoding="utf-8")
 
 
 def write_readme(path: Path) -> None:
-    text = path.read_text(encoding="utf-8")
-    head, rest = text.split(BEGIN, 1)
-    tail = rest.split(END, 1)[1]
-    path.write_text(f"{head}{BEGIN}\n{table()}{END}{tail}", encoding="utf-8")
+    """The README's table, and the levels table in docs/sets.md beside it."""
+    write_between(path, table())
+    sets_doc = path.resolve().parent / "docs" / "sets.md"
+    write_between(sets_doc, levels_table(), LEVELS_BEGIN, LEVELS_END)
 
 
 def _published_cell(cell: dict | None) -> str:
@@ -183,15 +271,19 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = parser.add_subparsers(dest="verb", required=True)
     r = sub.add_parser("run", help="route (or take the reference), score, record")
-    r.add_argument("set", type=Path)
-    r.add_argument("--config", required=True, choices=sorted(SPLITS))
-    r.add_argument("--method", required=True, choices=sorted(METHODS))
-    r.add_argument("--rollouts", type=int, default=5)
-    r.add_argument("--drc", default="terminal", choices=("terminal", "step"))
-    r.add_argument("--workers", type=int, default=2)
-    r.add_argument("--eval-workers", type=int, default=8)
-    r.add_argument("--work", default="/tmp/pcbdata-baselines",
-                   help="where the runs and reports go (never the repository)")
+    n = sub.add_parser("noise", help="one cell --repeats times: the timing noise floor")
+    n.add_argument("--repeats", type=int, default=5)
+    for p in (r, n):
+        p.add_argument("set", type=Path)
+        p.add_argument("--config", required=True, help="any config the set holds")
+        p.add_argument("--method", required=True, choices=sorted(METHODS) + ["d1"])
+        p.add_argument("--rollouts", type=int, default=5)
+        p.add_argument("--limit", type=int, default=None, help="only the first N test boards")
+        p.add_argument("--drc", default="terminal", choices=("terminal", "step"))
+        p.add_argument("--workers", type=int, default=2)
+        p.add_argument("--eval-workers", type=int, default=8)
+        p.add_argument("--work", default="/tmp/pcbdata-baselines",
+                       help="where the runs and reports go (never the repository)")
     t = sub.add_parser("table", help="print the README's table from the records")
     t.add_argument("--write", type=Path, metavar="README",
                    help="put it between the README's baselines markers instead")
@@ -200,6 +292,8 @@ def main() -> int:
     args = parser.parse_args()
     if args.verb == "run":
         run(args)
+    elif args.verb == "noise":
+        noise(args)
     elif args.verb == "collect":
         collect(args)
     elif args.write:

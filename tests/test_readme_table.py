@@ -1,5 +1,5 @@
-"""The README's results table is generated from the run records under
-bench/results/baselines/ and the published rows of bench/published.json (`python
+"""The README's results table and docs/sets.md's levels table are generated from the run
+records under bench/results/baselines/ and the published rows of bench/published.json (`python
 bench/baselines.py table --write README.md`), never typed by hand."""
 from __future__ import annotations
 
@@ -22,6 +22,13 @@ def test_readme_table_is_the_generated_one():
     baselines = _baselines()
     readme = (ROOT / "README.md").read_text(encoding="utf-8")
     assert baselines.readme_table(readme) == baselines.table()
+
+
+def test_levels_table_is_the_generated_one():
+    baselines = _baselines()
+    doc = (ROOT / "docs" / "sets.md").read_text(encoding="utf-8")
+    assert baselines.readme_table(doc, baselines.LEVELS_BEGIN, baselines.LEVELS_END) == \
+        baselines.levels_table()
 
 
 def test_every_record_names_its_commands_machine_date_and_set():
