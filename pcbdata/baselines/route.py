@@ -2,7 +2,7 @@
 
 Routers: `freeroute` (default) and any `--router-cmd` go through the Specctra round trip
 (`pcbdata.baselines.specctra`); `kicad-tools` routes the `.kicad_pcb` directly
-(`pcbdata.baselines.kicad_tools`). Each rollout runs in a `KicadPool` worker with a time limit.
+(`pcbdata.kicad.kicad_tools_route`). Each rollout runs in a `KicadPool` worker with a time limit.
 
 Output: `OUT/<board_id>/<rollout>.kicad_pcb` and `<rollout>.json` (status, reason, router and
 its version, `time_s` = wall time of the rollout, `router_s` and `router_cpu_s` of the router
