@@ -52,8 +52,11 @@ def make_agent(spec: str, seed: int, options: dict | None = None):
 
 
 def _policy_agent(path: str, seed: int):
+    """The learned router with the checkpoint at `path`; named by its `AGENTS` entry (a
+    string, like every agent here: the registry imports no agent's room)."""
+    module, _, name = AGENTS["policy"].partition(":")
     try:
-        from pcbdata.learn.agent import PolicyAgent
+        cls = getattr(importlib.import_module(module), name)
     except ImportError as exc:
         raise UserError(f"--agent policy:{path}: needs the train extra (torch): {exc}") from None
-    return PolicyAgent(seed=seed, path=path)
+    return cls(seed=seed, path=path)
