@@ -209,7 +209,23 @@ def table() -> str:
     for row in published["rows"]:
         cells = [_published_cell(row["cells"].get(config)) for config in SPLITS]
         lines.append(f"| {row['method']} (published) | " + " | ".join(cells) + " |")
-    return "\n".join(lines) + "\n"
+    return "\n".join(lines + noise_lines()) + "\n"
+
+
+def noise_lines() -> list[str]:
+    """One sentence per noise record (`bench/results/noise/`): the timing noise floor."""
+    out = []
+    for path in sorted((RESULTS / "noise").glob("*.json")):
+        r = json.loads(path.read_text())
+        med, loads = r["spread"]["median_s"], [x["load_before"] for x in r["repeats"]]
+        same = "the same" if r["figures_identical"] else "NOT the same"
+        out += ["", f"Timing noise floor ({path.name}): `{r['method']}` @{r['k']} on the first "
+                f"{r['limit']} `{r['config']}` test boards, {len(r['repeats'])} repeats into "
+                f"fresh folders at load {loads[0].split()[0]}: median seconds per episode "
+                f"{med['min']:.3f}-{med['max']:.3f} (std {med['std']:.3f}, range "
+                f"{100 * med['relative_range']:.0f} % of the mean); CP, Pot., WL and vias "
+                f"{same} in every repeat. Time differences within that range are not real."]
+    return out
 
 
 #: The levels table (docs/sets.md): scripted @1 on the first 64 test boards of every D2 and
