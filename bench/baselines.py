@@ -238,13 +238,18 @@ def _is_level(record: dict) -> bool:
 
 def levels_table() -> str:
     """CP %, Pot., Rout., mean (median) s per episode, DRV of each level record, in the
-    registry's order of configs, with its boards and k."""
+    registry's order of configs (levels by rank), with its boards and k."""
     sys.path.insert(0, str(REPO))
-    from pcbdata.sets.configs import order_key
+    from pcbdata.sets.configs import registry
+
+    ranked = list(registry())  # D1 grids, each family's levels by rank, D3 tiers
+
+    def rank(config: str) -> int:
+        return ranked.index(config) if config in ranked else len(ranked)
 
     records = [json.loads(p.read_text()) for p in sorted(RECORDS.glob("*.json"))]
     records = sorted((r for r in records if _is_level(r)),
-                     key=lambda r: (order_key(r["config"]), r["method"]))
+                     key=lambda r: (rank(r["config"]), r["config"], r["method"]))
     lines = ["| config | method | boards | CP % / Pot. / Rout. / mean (median) s | DRV |",
              "| --- | --- | --- | --- | --- |"]
     for r in records:
