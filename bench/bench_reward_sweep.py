@@ -1,0 +1,132 @@
+"""The reward-weight sweep's two marginal lines on D2 (SPEC 7.3): lambda_w in 0 / 0.001 / 0.002
+at the default lambda_v, and lambda_v in 0 / 0.05 / 0.1 at the default lambda_w (5 cells: the
+default cell is on both lines). Each cell and seed is a PPO fine-tune (`pcbdata train --init`)
+of at most `--minutes` of wall time from one cloned starting point, then greedy episodes of its
+last weights on `--eval-boards` D2-validation boards: CP, WL (mm), vias, return under the
+cell's own weights. The starting point is evaluated the same way (the baseline: the default
+cell's validation before its first update). The report
+says whether WL falls as lambda_w rises and vias fall as lambda_v rises (cell means over seeds).
+
+The published budget is 2 seeds and up to 10 minutes per cell on 2 cores (about 2 hours):
+
+    .venv/bin/python bench/bench_reward_sweep.py --out RUNS [--seeds 2] [--minutes 10]
+        [--start CHECKPOINT | --bc-boards 512 --bc-epochs 20] [--eval-boards 64]
+        [--record bench/runs/NAME.json]
+
+Without `--start`, the starting point is cloned once into RUNS/clone (`pcbdata train
+--updates 0`). Cells already finished in RUNS are not run again (their run folders resume).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+from datetime import UTC, datetime
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from bench._measure import machine, report  # noqa: E402
+
+DEFAULT_LW, DEFAULT_LV = 0.002, 0.1
+LW_LINE = (0.0, 0.001, 0.002)
+LV_LINE = (0.0, 0.05, 0.1)
+#: The five cells: the lambda_w line at the default lambda_v, then the rest of the lambda_v line.
+CELLS = [(lw, DEFAULT_LV) for lw in LW_LINE] + [(DEFAULT_LW, lv) for lv in LV_LINE[:-1]]
+#: Published marginal means along each line (SPEC 7.5 / 7.3).
+PUBLISHED = {"wl_along_lw": [484.8, 468.4, 462.4], "vias_along_lv": [4.06, 2.82, 2.27]}
+
+
+def _log(line: str) -> None:
+    print(line, flush=True)
+
+
+def starting_point(args, out: Path) -> Path:
+    if args.start:
+        return Path(args.start)
+    from pcbdata.learn.train import Settings, train
+
+    clone = out / "clone"
+    train(clone, Settings(bc_boards=args.bc_boards, bc_epochs=args.bc_epochs, updates=0,
+                          val_boards=args.eval_boards), log=_log)
+    return clone / "best.pt"
+
+
+def figures(row: dict) -> dict:
+    """CP, WL, vias and return of a validation row of a run's log."""
+    return {"cp": row["val_cp"], "wl_mm": row["val_wl"], "vias": row["val_vias"],
+            "return": row["val_return"]}
+
+
+def run_cell(args, out: Path, start: Path, lw: float, lv: float, seed: int) -> dict:
+    from pcbdata.learn.train import Settings, train
+
+    folder = out / f"lw{lw:g}-lv{lv:g}-seed{seed}"
+    s = Settings(seed=seed, lw=lw, lv=lv, init=str(start), updates=100_000,
+                 minutes=args.minutes, val_boards=args.eval_boards, val_every=100_000,
+                 checkpoint_every=100_000)
+    result_path = folder / "sweep.json"
+    if result_path.is_file():
+        return json.loads(result_path.read_text())
+    began = time.perf_counter()
+    progress = train(folder, s, log=_log)
+    seconds = time.perf_counter() - began
+    rows = [r for r in progress["log"] if r["phase"] == "ppo"]
+    # the start's validation, then the last update's (both on the eval boards)
+    result = {"lw": lw, "lv": lv, "seed": seed, "updates": progress["update"],
+              "env_steps": int(sum(r["env_steps"] for r in rows)), "train_seconds": seconds,
+              **figures(rows[-1]), "start": figures(progress["log"][0])}
+    result_path.write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
+    return result
+
+
+def _mean(results: list[dict], lw: float, lv: float, key: str) -> float:
+    return float(np.mean([r[key] for r in results if (r["lw"], r["lv"]) == (lw, lv)]))
+
+
+def directions(results: list[dict]) -> dict:
+    """Cell means along each line, and whether they fall as the weight rises."""
+    wl = [_mean(results, lw, DEFAULT_LV, "wl_mm") for lw in LW_LINE]
+    vias = [_mean(results, DEFAULT_LW, lv, "vias") for lv in LV_LINE]
+    return {"wl_along_lw": wl, "vias_along_lv": vias,
+            "wl_falls_as_lw_rises": bool(wl[0] > wl[1] > wl[2]),
+            "wl_lower_at_0.002_than_at_0": bool(wl[2] < wl[0]),
+            "vias_fall_as_lv_rise": bool(vias[0] > vias[1] > vias[2]),
+            "vias_lower_at_0.1_than_at_0": bool(vias[2] < vias[0])}
+
+
+def main(argv=None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", required=True, help="folder of the runs (resumable)")
+    ap.add_argument("--seeds", type=int, default=2, help="seeds per cell (0, 1, ...)")
+    ap.add_argument("--minutes", type=float, default=10.0, help="fine-tune wall time per cell")
+    ap.add_argument("--start", help="the cloned starting point (default: clone one)")
+    ap.add_argument("--bc-boards", type=int, default=512, help="cloning boards (no --start)")
+    ap.add_argument("--bc-epochs", type=int, default=20, help="cloning epochs (no --start)")
+    ap.add_argument("--eval-boards", type=int, default=64, help="D2-validation boards, greedy")
+    ap.add_argument("--record", help="JSON file for the run's data (bench/runs/...)")
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    began = datetime.now(UTC)
+    load = os.getloadavg()[0]
+    start = starting_point(args, out)
+    results = [run_cell(args, out, start, lw, lv, seed)
+               for seed in range(args.seeds) for lw, lv in CELLS]
+    baseline = next(r["start"] for r in results if (r["lw"], r["lv"]) == (DEFAULT_LW, DEFAULT_LV))
+    report({"command": "python bench/bench_reward_sweep.py " + " ".join(argv or sys.argv[1:]),
+            "machine": machine(), "date": began.strftime("%Y-%m-%d %H:%M UTC"),
+            "load_before": load, "load_after": os.getloadavg()[0],
+            "budget": {"seeds": args.seeds, "minutes_per_cell": args.minutes,
+                       "eval_boards": args.eval_boards, "start": str(start),
+                       **({} if args.start else {"bc_boards": args.bc_boards,
+                                                 "bc_epochs": args.bc_epochs})},
+            "starting_point": baseline, "cells": results, "published": PUBLISHED,
+            **directions(results)}, args.record)
+
+
+if __name__ == "__main__":
+    main()
