@@ -35,6 +35,7 @@ OPTIONS = {
     "groups": "GRPO: groups per update (default 1)",
     "init": "start from this checkpoint instead of cloning (a fine-tune)",
     "minutes": "stop the PPO/GRPO phase after the update that passes this wall time",
+    "value_warmup": "PPO: the first N updates train only the value head (default 0)",
 }
 TYPES = {"config": str, "drc": str, "teacher": str, "lr_bc": float, "lr_ppo": float,
          "gamma": float, "lam": float, "clip": float, "entropy": float,

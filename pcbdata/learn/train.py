@@ -81,6 +81,7 @@ class Settings:
     groups: int = 1  # GRPO: groups per update
     init: str = ""  # a checkpoint to start from instead of cloning ("": clone)
     minutes: float = 0.0  # > 0: the RL phase stops after the update that passes this wall time
+    value_warmup: int = 0  # PPO: the first N updates train only the value head (policy frozen)
 
     def __post_init__(self) -> None:
         """Refused before a run folder is made, so bad settings leave nothing behind."""
@@ -288,7 +289,11 @@ def advantages(ro: Rollout, last: np.ndarray, s: Settings) -> tuple[np.ndarray, 
 
 
 def ppo_update(policy, opt, ro: Rollout, last, s: Settings, update: int, dev) -> dict:
+    """Clipped-ratio PPO over the rollout; during `value_warmup` only the value head learns
+    (its loss alone, every other parameter left as it is: cloning trains no critic, and an
+    untrained critic's gradients through the shared encoder can undo the cloned policy)."""
     adv, ret = advantages(ro, last, s)
+    warmup = update <= s.value_warmup
     live = np.stack(ro.live).reshape(-1)
     flat_obs = [o for step in ro.obs for o in step]
     acts = torch.cat(ro.actions).reshape(-1, 3)
@@ -307,16 +312,23 @@ def ppo_update(policy, opt, ro: Rollout, last, s: Settings, update: int, dev) ->
             ratio = torch.exp(logp - old[rows].to(dev))
             pg = -torch.min(ratio * a, ratio.clamp(1 - s.clip, 1 + s.clip) * a).mean()
             vl = ((v - torch.as_tensor(ret_f[mb], dtype=torch.float32, device=dev)) ** 2).mean()
-            loss = pg + 0.5 * vl - s.entropy * ent.mean()
-            _step(opt, policy, loss)
+            loss = 0.5 * vl if warmup else pg + 0.5 * vl - s.entropy * ent.mean()
+            _step(opt, policy, loss, only=policy.value_head if warmup else None)
             stats.append((pg.item(), vl.item(), ent.mean().item()))
     pg_m, vl_m, ent_m = np.mean(stats, axis=0) if stats else (0.0, 0.0, 0.0)
     return {"policy_loss": float(pg_m), "value_loss": float(vl_m), "entropy": float(ent_m)}
 
 
-def _step(opt, policy, loss) -> None:
+def _step(opt, policy, loss, only=None) -> None:
+    """One optimiser step; with `only` (a submodule), the other parameters get no gradient,
+    so Adam leaves them unchanged."""
     opt.zero_grad()
     loss.backward()
+    if only is not None:
+        keep = {id(p) for p in only.parameters()}
+        for p in policy.parameters():
+            if id(p) not in keep:
+                p.grad = None
     torch.nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
     opt.step()
 

@@ -160,3 +160,19 @@ def test_init_starts_from_a_checkpoint_without_cloning(tmp_path):
     assert any(line.startswith("init:") for line in logged)
     with pytest.raises(UserError, match="width 16, the run's --dim is 32"):
         training.train(tmp_path / "other", replace(TINY, dim=32, init=str(start)))
+
+
+def test_value_warmup_trains_only_the_value_head(tmp_path):
+    """--value-warmup N: PPO's first N updates leave every parameter but the critic's."""
+    import torch
+
+    start = tmp_path / "start.pt"
+    torch.manual_seed(0)
+    save_policy(SetPolicy(dim=16), start, {})
+    before, _ = load_policy(start)
+    s = replace(TINY, init=str(start), value_warmup=1, rollout_steps=8)
+    training.train(tmp_path / "run", s, log=lambda _: None)
+    after, _ = load_policy(tmp_path / "run" / "checkpoints" / "update_00001.pt")
+    old, new = before.state_dict(), after.state_dict()
+    moved = {k for k in old if not torch.equal(old[k], new[k])}
+    assert moved and all(k.startswith("value_head.") for k in moved), moved
