@@ -56,7 +56,7 @@ def starting_point(args, out: Path) -> Path:
     return clone / "best.pt"
 
 
-def figures(row: dict) -> dict:
+def validation_figures(row: dict) -> dict:
     """CP, WL, vias and return of a validation row of a run's log."""
     return {"cp": row["val_cp"], "wl_mm": row["val_wl"], "vias": row["val_vias"],
             "return": row["val_return"]}
@@ -79,13 +79,44 @@ def run_cell(args, out: Path, start: Path, lw: float, lv: float, seed: int) -> d
     # the start's validation, then the last update's (both on the eval boards)
     result = {"lw": lw, "lv": lv, "seed": seed, "updates": progress["update"],
               "env_steps": int(sum(r["env_steps"] for r in rows)), "train_seconds": seconds,
-              **figures(rows[-1]), "start": figures(progress["log"][0])}
+              **validation_figures(rows[-1]), "start": validation_figures(progress["log"][0])}
     result_path.write_text(json.dumps(result, indent=1, sort_keys=True) + "\n")
     return result
 
 
 def _mean(results: list[dict], lw: float, lv: float, key: str) -> float:
     return float(np.mean([r[key] for r in results if (r["lw"], r["lv"]) == (lw, lv)]))
+
+
+def _spread(values: list[float], digits: int) -> str:
+    """mean, or mean +- sample std over seeds."""
+    if len(values) < 2:
+        return f"{np.mean(values):.{digits}f}"
+    return f"{np.mean(values):.{digits}f} +- {np.std(values, ddof=1):.{digits}f}"
+
+
+def figures(results: list[dict], start: dict) -> dict:
+    """The docs' tables (bench/doc_tables.py): one row per cell, one per line."""
+    cells = [{"lambda_w": "start", "lambda_v": "", "seeds": "", "updates": "",
+              "CP": f"{start['cp']:.3f}", "WL (mm)": f"{start['wl_mm']:.1f}",
+              "vias": f"{start['vias']:.3f}"}]
+    for lw, lv in CELLS:
+        mine = [r for r in results if (r["lw"], r["lv"]) == (lw, lv)]
+        cells.append({"lambda_w": lw, "lambda_v": lv, "seeds": len(mine),
+                      "updates": _spread([r["updates"] for r in mine], 0),
+                      "CP": _spread([r["cp"] for r in mine], 3),
+                      "WL (mm)": _spread([r["wl_mm"] for r in mine], 1),
+                      "vias": _spread([r["vias"] for r in mine], 3)})
+    d = directions(results)
+    lines = [{"line": "WL (mm) as lambda_w goes 0 / 0.001 / 0.002",
+              "measured": " / ".join(f"{v:.1f}" for v in d["wl_along_lw"]),
+              "published": " / ".join(map(str, PUBLISHED["wl_along_lw"])),
+              "falls": "yes" if d["wl_falls_as_lw_rises"] else "no"},
+             {"line": "vias as lambda_v goes 0 / 0.05 / 0.1",
+              "measured": " / ".join(f"{v:.3f}" for v in d["vias_along_lv"]),
+              "published": " / ".join(map(str, PUBLISHED["vias_along_lv"])),
+              "falls": "yes" if d["vias_fall_as_lv_rise"] else "no"}]
+    return {"cells": cells, "lines": lines}
 
 
 def directions(results: list[dict]) -> dict:
@@ -119,12 +150,17 @@ def main(argv=None) -> None:
     baseline = next(r["start"] for r in results if (r["lw"], r["lv"]) == (DEFAULT_LW, DEFAULT_LV))
     report({"command": "python bench/bench_reward_sweep.py " + " ".join(argv or sys.argv[1:]),
             "machine": machine(), "date": began.strftime("%Y-%m-%d %H:%M UTC"),
-            "load_before": load, "load_after": os.getloadavg()[0],
             "budget": {"seeds": args.seeds, "minutes_per_cell": args.minutes,
                        "eval_boards": args.eval_boards, "start": str(start),
                        **({} if args.start else {"bc_boards": args.bc_boards,
                                                  "bc_epochs": args.bc_epochs})},
-            "starting_point": baseline, "cells": results, "published": PUBLISHED,
+            "load": f"load average {load:.1f} before, {os.getloadavg()[0]:.1f} after (2 cores "
+                    "shared with other jobs)",
+            "figures": figures(results, baseline),
+            "notes": "CP, WL and vias: greedy episodes of each cell's last weights on the first "
+                     f"{args.eval_boards} D2-validation boards; cell means over seeds (+- the "
+                     "sample std with 2 or more seeds).",
+            "starting_point": baseline, "runs": results, "published": PUBLISHED,
             **directions(results)}, args.record)
 
 
