@@ -30,7 +30,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
-from bench._measure import machine, report  # noqa: E402
+from bench._measure import machine  # noqa: E402
 
 DEFAULT_LW, DEFAULT_LV = 0.002, 0.1
 LW_LINE = (0.0, 0.001, 0.002)
@@ -130,6 +130,16 @@ def directions(results: list[dict]) -> dict:
             "vias_lower_at_0.1_than_at_0": bool(vias[2] < vias[0])}
 
 
+def record(result: dict, path: str | None) -> None:
+    """Prints the run as JSON and writes it to `path`; keys keep their order (the tables'
+    columns are in the rows' order)."""
+    text = json.dumps(result, indent=1)
+    print(text)
+    if path:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+        Path(path).write_text(text + "\n", encoding="utf-8")
+
+
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", required=True, help="folder of the runs (resumable)")
@@ -148,7 +158,7 @@ def main(argv=None) -> None:
     results = [run_cell(args, out, start, lw, lv, seed)
                for seed in range(args.seeds) for lw, lv in CELLS]
     baseline = next(r["start"] for r in results if (r["lw"], r["lv"]) == (DEFAULT_LW, DEFAULT_LV))
-    report({"command": "python bench/bench_reward_sweep.py " + " ".join(argv or sys.argv[1:]),
+    record({"command": "python bench/bench_reward_sweep.py " + " ".join(argv or sys.argv[1:]),
             "machine": machine(), "date": began.strftime("%Y-%m-%d %H:%M UTC"),
             "budget": {"seeds": args.seeds, "minutes_per_cell": args.minutes,
                        "eval_boards": args.eval_boards, "start": str(start),
