@@ -34,7 +34,8 @@ OPTIONS = {
     "group": "GRPO: episodes per group, one board (default 16)",
     "groups": "GRPO: groups per update (default 1)",
     "init": "start from this checkpoint instead of cloning (a fine-tune)",
-    "minutes": "stop the PPO/GRPO phase after the update that passes this wall time",
+    "minutes": "end the PPO/GRPO phase within this wall time (minutes): the last update is the "
+               "one after which another would not fit",
     "value_warmup": "PPO: the first N updates train only the value head (default 0)",
 }
 TYPES = {"config": str, "drc": str, "teacher": str, "lr_bc": float, "lr_ppo": float,

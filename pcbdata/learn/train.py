@@ -80,7 +80,7 @@ class Settings:
     group: int = 16  # GRPO: episodes of one board per group
     groups: int = 1  # GRPO: groups per update
     init: str = ""  # a checkpoint to start from instead of cloning ("": clone)
-    minutes: float = 0.0  # > 0: the RL phase stops after the update that passes this wall time
+    minutes: float = 0.0  # > 0: the RL phase ends with the update after which another would not fit
     value_warmup: int = 0  # PPO: the first N updates train only the value head (policy frozen)
 
     def __post_init__(self) -> None:
