@@ -151,7 +151,7 @@ class RoutingEnv(gym.Env):
         self._applied: list[dict] = []  # every edit KiCad accepted: a damaged worker is rebuilt
         self._state = self._measure()
         self._max_steps = self.options.max_steps or step_limit(self._state["unconnected"])
-        self._telescope = Telescope(self._state["phi"], self.options.reward == "step")
+        self._telescope = Telescope(self._state["phi"], self.options.reward == "dense")
         self._static_obs = observation.static_part(self.static,
                                                    self.observation_space["board_static"])
         self._refresh_masks()
@@ -191,7 +191,7 @@ class RoutingEnv(gym.Env):
         nets = masks.net_mask(s, o.max_nets)
         modes, self._mode_reasons = masks.mode_mask()
         phase = masks.phase_of(self._net, self._head)
-        can_finish = phase == ROUTING and bool(self._finish_targets())
+        can_finish = self.options.finish and phase == ROUTING and bool(self._finish_targets())
         self._masks = {"type": masks.type_mask(phase, bool(nets.any()), line, via, can_finish),
                        "net": nets, "candidate": line, "candidate_via": via, "mode": modes}
 
@@ -257,6 +257,8 @@ class RoutingEnv(gym.Env):
         if a.point is not None:
             return self._point_masked(a)
         m, name = self._masks, ACTION_TYPES[a.type]
+        if a.type == FINISH and not self.options.finish:
+            return "finish is not offered (option finish=False)"
         if not m["type"][a.type]:
             return f"{name} is masked in phase {PHASES[masks.phase_of(self._net, self._head)]}"
         if a.type == NET_SELECT and not m["net"][a.net]:

@@ -36,7 +36,7 @@ class EnvOptions:
     rows: object = None  # dataset rows (e.g. `load_dataset(...)`): boards written to files
     count: int | None = None  # boards of the split to draw from (default: all)
     max_steps: int | None = None  # None: max(200, 8 * connections left at reset), per board
-    reward: str = "step"  # "step" or "terminal"
+    reward: str = "dense"  # "dense": r_t = Phi(s_t+1) - Phi(s_t); "terminal": at the end only
     counting: str = "strict"  # "strict" or "evaluation" (SPEC section 4)
     weights: Weights = Weights()
     drc: str = "step"  # "step": KiCad DRC after every copper change; "terminal": at the end
@@ -53,6 +53,7 @@ class EnvOptions:
     router_checks: int = BUDGET_CHECKS  # ... and link checks (machine-independent counts)
     router_seconds: float | None = None  # a wall-clock limit too; runs then are not reproducible
     finish_tries: int = 3
+    finish: bool = True  # False: the finish action is masked in every phase (never offered)
     cleanup: bool = True  # net_end and push_n_shove delete their nets' dangling tracks and vias
     task_timeout: float = 120.0
     engine_env: dict | None = None  # environment of the KiCad worker (e.g. LD_PRELOAD)
@@ -60,8 +61,10 @@ class EnvOptions:
     render_mode: str | None = None
 
 
-CHOICES = {"reward": ("step", "terminal"), "counting": ("strict", "evaluation"),
+CHOICES = {"reward": ("dense", "terminal"), "counting": ("strict", "evaluation"),
            "drc": ("step", "terminal"), "split": ("train", "validation", "test", "full")}
+#: Old spellings still read: reward="step" is the dense reward's earlier name.
+ALIASES = {"reward": {"step": "dense"}}
 
 
 def make_options(**given) -> EnvOptions:
@@ -75,6 +78,9 @@ def make_options(**given) -> EnvOptions:
             hint = f"; did you mean {close[0]!r}?" if close else ""
             raise EnvOptionError(f"unknown option {name!r} for the pcbdata routing "
                                  f"environment{hint} (options: {', '.join(known)})")
+    for name, spellings in ALIASES.items():
+        if isinstance(given.get(name), str) and given[name] in spellings:
+            given[name] = spellings[given[name]]
     if isinstance(given.get("weights"), dict):
         given["weights"] = Weights(**given["weights"])
     options = EnvOptions(**given)

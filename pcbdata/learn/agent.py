@@ -2,7 +2,10 @@
 `--agent policy:PATH`: any checkpoint). Every action comes from the network: argmax for
 rollout 0, masked sampling seeded by the rollout number otherwise (the @k rollouts), with the
 logits divided by the checkpoint's `sampling_temperature` (1 when it names none): a cloned
-policy is so sure of itself that untempered samples repeat the argmax, and @k gains nothing."""
+policy is so sure of itself that untempered samples repeat the argmax, and @k gains nothing.
+A checkpoint trained without `finish` (`pcbdata train --no-finish`, its record's variant) never
+sends it: the agent masks it out of what the environment offers, as training's environment
+did."""
 from __future__ import annotations
 
 from functools import lru_cache
@@ -12,6 +15,7 @@ import numpy as np
 import torch
 
 from pcbdata.core.hashing import sha256_file
+from pcbdata.env.types import FINISH
 from pcbdata.env.wrappers import features
 from pcbdata.env.wrappers.rl import env_action
 from pcbdata.learn import batch as batching
@@ -47,6 +51,7 @@ class PolicyAgent:
         self._layout: features.Layout | None = None
         self._static: features.StaticRows | None = None
         self.reader = EpisodeReader()
+        self.no_finish = bool(self.record.get("variant", {}).get("no_finish", False))
 
     def identity(self) -> dict:
         """The checkpoint's sha256 and the sampling temperature (rollout 0 takes the argmax),
@@ -59,8 +64,8 @@ class PolicyAgent:
             self._layout = batching.layout_of(obs)
             self._static = features.static_rows(obs, self._layout)
             self.reader.reset()
-        wrapped = batching.wrapped_observation(obs, info["action_mask"], self._layout,
-                                               self._static)
+        masks = without_finish(info["action_mask"]) if self.no_finish else info["action_mask"]
+        wrapped = batching.wrapped_observation(obs, masks, self._layout, self._static)
         return env_action(self.triple(wrapped))
 
     def triple(self, wrapped: dict) -> np.ndarray:
@@ -73,3 +78,11 @@ class PolicyAgent:
         chosen = actions[0].cpu().numpy().astype(np.int64)
         self.reader.acted(chosen)
         return chosen
+
+
+def without_finish(masks: dict) -> dict:
+    """The environment's per-argument masks with `finish` masked, as the environment option
+    finish=False gives them (the network's rows read the type mask too)."""
+    types = np.array(masks["type"], copy=True)
+    types[FINISH] = 0
+    return {**masks, "type": types}

@@ -1,5 +1,7 @@
-"""`pcbdata train`: behaviour cloning from the scripted agent, then PPO on the environment's
-Phi reward, validation on another split picking the checkpoint (docs/learn.md).
+"""`pcbdata train`: behaviour cloning from the scripted agent (or a given checkpoint), then PPO
+or GRPO (`pcbdata.learn.grpo`) on the environment's Phi reward, dense or terminal, with or
+without `finish`, at given weights; validation on another split picking the checkpoint
+(docs/learn.md).
 
 A run folder holds `settings.json` (all settings and the seed), `state.pt` (weights, optimiser,
 counters, log: written after every phase step, so a killed run resumes where it stopped),
@@ -22,16 +24,23 @@ import torch
 
 from pcbdata.agents.scripted import ScriptedAgent, ShovingScriptedAgent
 from pcbdata.core.errors import UserError
+from pcbdata.env.types import FINISH
 from pcbdata.env.wrappers import features
 from pcbdata.env.wrappers.rl import CANDIDATE_INDEXED, MODED, NET_INDEXED, make_rl_env
 from pcbdata.learn import batch as batching
-from pcbdata.learn.checkpoint import save_policy
+from pcbdata.learn import grpo
+from pcbdata.learn.checkpoint import load_policy, save_policy
 from pcbdata.learn.curve import draw_curve
 from pcbdata.learn.derived import EpisodeReader
 from pcbdata.learn.policy import SetPolicy, device, to_tensors
+from pcbdata.learn.teacher import WithoutFinish
 
 #: The agents cloning may imitate (`--teacher`).
 TEACHERS = {"scripted": ScriptedAgent, "scripted-shove": ShovingScriptedAgent}
+#: The learning algorithms after cloning (`--algo`) and the rewards (`--reward`, the
+#: environment's option of that name).
+ALGOS = ("ppo", "grpo")
+REWARDS = ("dense", "terminal")
 
 
 @dataclass(frozen=True)
@@ -63,17 +72,50 @@ class Settings:
     val_every: int = 10
     checkpoint_every: int = 20
     sampling_temperature: float = 8.0  # of the checkpoints' @k sampling (pcbdata.learn.agent)
+    algo: str = "ppo"  # ppo or grpo (pcbdata.learn.grpo)
+    reward: str = "dense"  # dense: Phi(s_t+1) - Phi(s_t) per step; terminal: Phi(s_T) - Phi(s_0)
+    no_finish: bool = False  # finish masked out: environment option finish=False everywhere
+    lw: float = 0.002  # lambda_w of Phi, per mm of track
+    lv: float = 0.1  # lambda_v of Phi, per via
+    group: int = 16  # GRPO: episodes of one board per group
+    groups: int = 1  # GRPO: groups per update
+    init: str = ""  # a checkpoint to start from instead of cloning ("": clone)
+    minutes: float = 0.0  # > 0: the RL phase ends with the update after which another would not fit
+    value_warmup: int = 0  # PPO: the first N updates train only the value head (policy frozen)
 
     def __post_init__(self) -> None:
         """Refused before a run folder is made, so bad settings leave nothing behind."""
         if self.teacher not in TEACHERS:
             raise UserError(f"--teacher {self.teacher}: one of {', '.join(TEACHERS)}")
+        for name, allowed in (("algo", ALGOS), ("reward", REWARDS)):
+            if getattr(self, name) not in allowed:
+                raise UserError(f"--{name} {getattr(self, name)}: one of {', '.join(allowed)}")
+        if self.lw < 0 or self.lv < 0:
+            raise UserError(f"--lw {self.lw}, --lv {self.lv}: reward weights must be >= 0")
+        if self.group < 2 or self.groups < 1:
+            raise UserError(f"--group {self.group}, --groups {self.groups}: a group needs at "
+                            "least 2 episodes, an update at least 1 group")
+        if self.init and not Path(self.init).is_file():
+            raise UserError(f"--init {self.init}: no such checkpoint")
         if not self.sampling_temperature > 0:
             raise UserError(f"--sampling-temperature {self.sampling_temperature}: must be > 0")
 
 
 def env_options(s: Settings, split: str, count: int) -> dict:
-    return {"split": split, "count": count, "max_steps": s.max_steps, "drc": s.drc}
+    return {"split": split, "count": count, "max_steps": s.max_steps, "drc": s.drc,
+            "reward": s.reward, "finish": not s.no_finish,
+            "weights": {"lw": s.lw, "lv": s.lv}}
+
+
+def variant(s: Settings) -> dict:
+    """What distinguishes the run's recipe (recorded in checkpoints and on the curve)."""
+    return {"algo": s.algo, "reward": s.reward, "no_finish": s.no_finish, "lw": s.lw,
+            "lv": s.lv, **({"group": s.group, "groups": s.groups} if s.algo == "grpo" else {})}
+
+
+def variant_label(s: Settings) -> str:
+    return (f"{s.algo}, {s.reward}{', no finish' if s.no_finish else ''}, "
+            f"lw {s.lw:g}, lv {s.lv:g}")
 
 
 def triple_of(act: dict) -> np.ndarray:
@@ -100,6 +142,8 @@ def scripted_demos(s: Settings, log: Callable[[str], None]) -> list[tuple[dict, 
             raw, info = raw_env.reset(seed=s.seed, options={"index": i})
             static = features.static_rows(raw, layout)
             agent, done = TEACHERS[s.teacher](seed=0), False
+            if s.no_finish:
+                agent = WithoutFinish(agent)
             reader.reset()
             while not done:
                 act = agent.act(raw, info)
@@ -107,6 +151,7 @@ def scripted_demos(s: Settings, log: Callable[[str], None]) -> list[tuple[dict, 
                     break
                 wrapped = batching.wrapped_observation(raw, info["action_mask"], layout, static)
                 extra, t = reader.read(wrapped), triple_of(act)
+                assert not (s.no_finish and t[0] == FINISH), "the teacher sent finish"
                 if allowed(wrapped, t):
                     demos.append((batching.compact(wrapped, extra), t))
                 reader.acted(t)
@@ -145,11 +190,11 @@ def clone(policy: SetPolicy, demos, s: Settings, dev, log) -> list[float]:
 
 
 def validate(policy: SetPolicy, s: Settings, dev, env=None) -> dict:
-    """Greedy episodes on `val_boards` validation boards: mean return and CP (the share of
-    boards left with nothing unconnected)."""
+    """Greedy episodes on `val_boards` validation boards: mean return, CP (the share of
+    boards left with nothing unconnected), mean WL (mm) and vias of the final boards."""
     own = env is None
     env = env or make_rl_env(s.config, **env_options(s, "validation", s.val_boards))
-    returns, complete = [], 0
+    returns, complete, wl, vias = [], 0, [], []
     try:
         for i in range(s.val_boards):
             obs, info = env.reset(seed=s.seed, options={"index": i})
@@ -164,10 +209,13 @@ def validate(policy: SetPolicy, s: Settings, dev, env=None) -> dict:
                 total, done = total + float(r), term or trunc
             returns.append(total)
             complete += int(info["unconnected"] == 0)
+            wl.append(float(info["wl_mm"]))
+            vias.append(float(info["vias"]))
     finally:
         if own:
             env.close()
-    return {"val_return": float(np.mean(returns)), "val_cp": complete / s.val_boards}
+    return {"val_return": float(np.mean(returns)), "val_cp": complete / s.val_boards,
+            "val_wl": float(np.mean(wl)), "val_vias": float(np.mean(vias))}
 
 
 @dataclass
@@ -241,7 +289,11 @@ def advantages(ro: Rollout, last: np.ndarray, s: Settings) -> tuple[np.ndarray, 
 
 
 def ppo_update(policy, opt, ro: Rollout, last, s: Settings, update: int, dev) -> dict:
+    """Clipped-ratio PPO over the rollout; during `value_warmup` only the value head learns
+    (its loss alone, every other parameter left as it is: cloning trains no critic, and an
+    untrained critic's gradients through the shared encoder can undo the cloned policy)."""
     adv, ret = advantages(ro, last, s)
+    warmup = update <= s.value_warmup
     live = np.stack(ro.live).reshape(-1)
     flat_obs = [o for step in ro.obs for o in step]
     acts = torch.cat(ro.actions).reshape(-1, 3)
@@ -260,19 +312,48 @@ def ppo_update(policy, opt, ro: Rollout, last, s: Settings, update: int, dev) ->
             ratio = torch.exp(logp - old[rows].to(dev))
             pg = -torch.min(ratio * a, ratio.clamp(1 - s.clip, 1 + s.clip) * a).mean()
             vl = ((v - torch.as_tensor(ret_f[mb], dtype=torch.float32, device=dev)) ** 2).mean()
-            loss = pg + 0.5 * vl - s.entropy * ent.mean()
-            opt.zero_grad()
-            loss.backward()
-            torch.nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
-            opt.step()
+            loss = 0.5 * vl if warmup else pg + 0.5 * vl - s.entropy * ent.mean()
+            _step(opt, policy, loss, only=policy.value_head if warmup else None)
             stats.append((pg.item(), vl.item(), ent.mean().item()))
     pg_m, vl_m, ent_m = np.mean(stats, axis=0) if stats else (0.0, 0.0, 0.0)
     return {"policy_loss": float(pg_m), "value_loss": float(vl_m), "entropy": float(ent_m)}
 
 
+def _step(opt, policy, loss, only=None) -> None:
+    """One optimiser step; with `only` (a submodule), the other parameters get no gradient,
+    so Adam leaves them unchanged."""
+    opt.zero_grad()
+    loss.backward()
+    if only is not None:
+        keep = {id(p) for p in only.parameters()}
+        for p in policy.parameters():
+            if id(p) not in keep:
+                p.grad = None
+    torch.nn.utils.clip_grad_norm_(policy.parameters(), 0.5)
+    opt.step()
+
+
+def grpo_update(policy, opt, groups: grpo.Groups, s: Settings, update: int, dev) -> dict:
+    """`ppo_epochs` epochs of minibatches of the clipped ratio with the groups' advantages."""
+    rng = np.random.default_rng(s.seed * 7919 + update)
+    stats = []
+    for _ in range(s.ppo_epochs):
+        for rows in _minibatches(len(groups.obs), s.minibatch, rng):
+            items = batching.collate([groups.obs[i] for i in rows])
+            adv = torch.as_tensor(groups.advantages[rows], dtype=torch.float32, device=dev)
+            loss, pg, ent = grpo.loss_of(policy, to_tensors(items, dev),
+                                         groups.actions[rows].to(dev),
+                                         groups.logp[rows].to(dev), adv, s)
+            _step(opt, policy, loss)
+            stats.append((pg.item(), ent.item()))
+    pg_m, ent_m = np.mean(stats, axis=0) if stats else (0.0, 0.0)
+    return {"policy_loss": float(pg_m), "entropy": float(ent_m),
+            "group_std": float(np.mean(groups.spreads))}
+
+
 #: Settings a resumed run may change: more updates extend it; the sampling temperature is
 #: only written into the checkpoints, for rollouts.
-EXTENDABLE = ("updates", "sampling_temperature")
+EXTENDABLE = ("updates", "sampling_temperature", "minutes")
 
 
 class Run:
@@ -283,8 +364,8 @@ class Run:
         out.mkdir(parents=True, exist_ok=True)
         given = asdict(s)
         path = out / "settings.json"
-        if path.is_file():
-            recorded = json.loads(path.read_text(encoding="utf-8"))
+        if path.is_file():  # a setting newer than the run reads as its default
+            recorded = {**asdict(Settings()), **json.loads(path.read_text(encoding="utf-8"))}
             changed = sorted(k for k in given
                              if k not in EXTENDABLE and recorded.get(k) != given[k])
             if changed:
@@ -312,11 +393,11 @@ class Run:
         progress["log"].append(row)
         with open(self.out / "log.jsonl", "a", encoding="utf-8") as f:
             f.write(json.dumps(row, sort_keys=True) + "\n")
-        draw_curve(progress["log"], self.out / "curve.png")
+        draw_curve(progress["log"], self.out / "curve.png", variant_label(self.s))
 
 
 def policy_record(s: Settings, progress: dict, extra: dict) -> dict:
-    return {"settings": asdict(s), "update": progress["update"],
+    return {"settings": asdict(s), "update": progress["update"], "variant": variant(s),
             "sampling_temperature": s.sampling_temperature, **extra}
 
 
@@ -342,8 +423,12 @@ def train(out, s: Settings, log: Callable[[str], None] = print) -> dict:
 def _bc_phase(run: Run, policy, dev, progress, log) -> None:
     s = run.s
     began = time.perf_counter()
-    demos = scripted_demos(s, log) if s.bc_boards else []
-    losses = clone(policy, demos, s, dev, log) if demos else []
+    if s.init:
+        _start_from(policy, Path(s.init), log)
+        demos, losses = [], []
+    else:
+        demos = scripted_demos(s, log) if s.bc_boards else []
+        losses = clone(policy, demos, s, dev, log) if demos else []
     val = validate(policy, s, dev)
     row = {"phase": "bc", "update": 0, "env_steps": 0, "demos": len(demos),
            "bc_loss": losses[-1] if losses else None, "seconds": time.perf_counter() - began,
@@ -355,45 +440,82 @@ def _bc_phase(run: Run, policy, dev, progress, log) -> None:
     log(f"bc: validation return {val['val_return']:.3f}, CP {val['val_cp']:.3f}")
 
 
+def _start_from(policy, path: Path, log) -> None:
+    """The weights of checkpoint `path` (`--init`: a fine-tune, no cloning)."""
+    start, record = load_policy(path)
+    if start.dim != policy.dim:
+        raise UserError(f"--init {path}: a network of width {start.dim}, the run's --dim is "
+                        f"{policy.dim}")
+    policy.load_state_dict(start.state_dict())
+    log(f"init: the weights of {path} (update {record.get('update', '-')}), no cloning")
+
+
 def _ppo_phase(run: Run, policy, opt, dev, progress, log) -> None:
     from pcbdata.env.wrappers.rl import make_vector_env
 
     s = run.s
-    envs = make_vector_env(s.config, s.envs, **env_options(s, "train", s.train_boards))
+    mode = "Disabled" if s.algo == "grpo" else "NextStep"  # GRPO resets to its group's board
+    envs = make_vector_env(s.config, s.envs, autoreset_mode=mode,
+                           **env_options(s, "train", s.train_boards))
     val_env = make_rl_env(s.config, **env_options(s, "validation", s.val_boards))
+    began, longest = time.perf_counter(), 0.0
     try:
         while progress["update"] < s.updates:
-            _one_update(run, policy, opt, envs, val_env, dev, progress, log)
+            # with --minutes, the last update is the one after which another would not fit
+            now = time.perf_counter()
+            out_of_time = s.minutes > 0 and now - began + 2 * longest > s.minutes * 60
+            _one_update(run, policy, opt, envs, val_env, dev, progress, log,
+                        last=out_of_time or progress["update"] + 1 == s.updates)
+            longest = max(longest, time.perf_counter() - now)
+            if out_of_time and progress["update"] < s.updates:
+                log(f"{s.algo}: stopped after {progress['update']} updates "
+                    f"(--minutes {s.minutes:g})")
+                break
     finally:
         envs.close()
         val_env.close()
 
 
-def _one_update(run: Run, policy, opt, envs, val_env, dev, progress, log) -> None:
+def _learn(policy, opt, envs, s: Settings, update: int, dev) -> tuple[dict, float]:
+    """One update's collection and learning: (log row, seconds spent collecting)."""
+    began = time.perf_counter()
+    if s.algo == "grpo":
+        groups = grpo.collect(policy, envs, s, update, dev)
+        collected = time.perf_counter() - began
+        stats = grpo_update(policy, opt, groups, s, update, dev)
+        steps, finished = len(groups.obs), groups.returns
+    else:
+        ro, last, finished = collect(policy, envs, s, update, dev)
+        collected = time.perf_counter() - began
+        stats = ppo_update(policy, opt, ro, last, s, update, dev)
+        steps = int(np.stack(ro.live).sum())
+    row = {"phase": s.algo, "update": update, "env_steps": steps,
+           "return": float(np.mean(finished)) if finished else None, **stats}
+    return row, collected
+
+
+def _one_update(run: Run, policy, opt, envs, val_env, dev, progress, log,
+                last: bool = False) -> None:
     s = run.s
     update = progress["update"] + 1
     torch.manual_seed(s.seed * 1_000_003 + update)
     began = time.perf_counter()
-    ro, last, finished = collect(policy, envs, s, update, dev)
-    collected = time.perf_counter() - began
-    stats = ppo_update(policy, opt, ro, last, s, update, dev)
+    row, collected = _learn(policy, opt, envs, s, update, dev)
     seconds = time.perf_counter() - began
-    steps = int(np.stack(ro.live).sum())
-    row = {"phase": "ppo", "update": update, "env_steps": steps,
-           "steps_per_s": steps / seconds, "steps_per_s_collect": steps / collected,
-           "return": float(np.mean(finished)) if finished else None, **stats}
-    if update % s.val_every == 0 or update == s.updates:
+    steps = row["env_steps"]
+    row.update(steps_per_s=steps / seconds, steps_per_s_collect=steps / collected)
+    if update % s.val_every == 0 or last:
         row.update(validate(policy, s, dev, val_env))
         if _better(row, progress["best"]):
             progress["best"] = row
             save_policy(policy, run.out / "best.pt", policy_record(s, progress, row))
     progress["update"] = update
-    if update % s.checkpoint_every == 0 or update == s.updates:
+    if update % s.checkpoint_every == 0 or last:
         save_policy(policy, run.out / "checkpoints" / f"update_{update:05d}.pt",
                     policy_record(s, progress, row))
     run.record(row, progress)
     run.save(policy, opt, progress)
-    log(f"ppo: update {update}/{s.updates}, {steps} steps, {row['steps_per_s']:.1f} steps/s "
+    log(f"{s.algo}: update {update}/{s.updates}, {steps} steps, {row['steps_per_s']:.1f} steps/s "
         f"({row['steps_per_s_collect']:.1f} collecting), return "
         f"{'-' if row['return'] is None else format(row['return'], '.3f')}"
         + (f", validation return {row['val_return']:.3f}, CP {row['val_cp']:.3f}"

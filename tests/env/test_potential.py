@@ -85,7 +85,7 @@ def test_connectivity_count_matches_drc(make_env):
 
 def test_terminal_reward_pays_once_the_same_total(make_env):
     totals = {}
-    for reward in ("step", "terminal"):
+    for reward in ("dense", "terminal"):
         env = make_env(reward=reward, max_steps=12, counting="evaluation", drc="terminal",
                        weights={"lw": 0.01, "lv": 0.5, "net_weight": 3.0})
         agent = ScriptedAgent(seed=0, mode=MARK_OBSTACLES)
@@ -99,7 +99,17 @@ def test_terminal_reward_pays_once_the_same_total(make_env):
         if reward == "terminal":
             assert all(r == 0.0 for r in rewards[:-1]) and rewards[-1] != 0.0
         totals[reward] = sum(rewards)
-    assert totals["step"] == pytest.approx(totals["terminal"], abs=1e-9)
+    assert totals["dense"] == pytest.approx(totals["terminal"], abs=1e-9)
+
+
+def test_the_dense_rewards_earlier_name_is_still_read():
+    from pcbdata.env.errors import EnvValueError
+    from pcbdata.env.options import make_options
+
+    assert make_options().reward == "dense"
+    assert make_options(reward="step").reward == "dense"
+    with pytest.raises(EnvValueError, match="not one of dense, terminal"):
+        make_options(reward="per-step")
 
 
 def test_d3_summed_reward_equals_pot(d3_set, kicad_pool, tmp_path):

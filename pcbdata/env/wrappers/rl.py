@@ -211,10 +211,12 @@ def make_rl_env(config: str = "d2", runs_dir: str | None = None, boards=None, ro
 
 
 def make_vector_env(config: str, n: int, boards=None, close_timeout: float | None = 60.0,
-                    **options) -> gym.vector.AsyncVectorEnv:
+                    autoreset_mode: str = "NextStep", **options) -> gym.vector.AsyncVectorEnv:
     """N wrapped environments, each in its own spawned process with its own KiCad worker
     (`context="spawn"`: a process forked after KiCad ran DRC hangs). With `runs_dir` and
-    `boards`, environment i records boards[i::n]."""
+    `boards`, environment i records boards[i::n]. `autoreset_mode` is Gymnasium's ("Disabled":
+    the caller resets, e.g. every environment to one board; a step after the end is the
+    environment's no-op)."""
     if n < 1:
         from pcbdata.env.errors import EnvValueError
 
@@ -223,7 +225,8 @@ def make_vector_env(config: str, n: int, boards=None, close_timeout: float | Non
     for i in range(n):
         share = list(boards)[i::n] if boards is not None else None
         fns.append(functools.partial(make_rl_env, config, boards=share, **options))
-    return TimedCloseVectorEnv(fns, context="spawn", close_timeout=close_timeout)
+    return TimedCloseVectorEnv(fns, context="spawn", close_timeout=close_timeout,
+                               autoreset_mode=autoreset_mode)
 
 
 class TimedCloseVectorEnv(gym.vector.AsyncVectorEnv):
