@@ -31,12 +31,12 @@ import math
 from collections import deque
 from dataclasses import dataclass, field, replace
 
-import numpy as np
 import shapely
 
-from pcbdata.router.clearance import HEADINGS, TOLERANCE
-from pcbdata.router.connections import Connection, End
+from pcbdata.router.clearance import TOLERANCE
+from pcbdata.router.connections import Connection
 from pcbdata.router.geometry import BoardGeometry, CopperItem, Point, copper_core
+from pcbdata.router.layered import VIA_COST, LayeredRequest
 from pcbdata.router.requests import RouteRequest
 from pcbdata.router.walkaround import WalkaroundRouter
 
@@ -103,12 +103,13 @@ class Negotiator:
                  rules: dict[str, NetRule], connections: list[Connection],
                  budget_routes: int = BUDGET_ROUTES, max_rips: int = MAX_RIPS,
                  restarts: int = RESTARTS, router_nodes: int | None = None,
-                 router_checks: int | None = None):
+                 router_checks: int | None = None, via_cost: int = VIA_COST):
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
         self.connections = list(connections)
         self.budget, self.max_rips, self.restarts = budget_routes, max_rips, restarts
+        self.via_cost = via_cost
         self.bare = WalkaroundRouter(board, **budgets)  # the board without planned copper
         self.router = self.bare.with_board(board)  # with all of it
         self.fixed_router = self.bare.with_board(board)  # with what may not be ripped up
@@ -256,22 +257,25 @@ class Negotiator:
     # --- ways ---
 
     def _way(self, router: WalkaroundRouter, index: int) -> Wire | None:
+        """A way for connection `index`: a walkaround path on a layer both ends are on, else
+        the layered search (vias as moves of the search, `pcbdata.router.layered`)."""
         c = self.connections[index]
         rule = self.rules[c.net]
         for layer in [lay for lay in self.layers if lay in c.a.layers and lay in c.b.layers]:
             path = self._leg(router, c.net, layer, c.a.at, c.b.at, rule)
             if path:
                 return Wire(c.net, ((layer, path),))
-        for la in [lay for lay in self.layers if lay in c.a.layers]:
-            for lb in [lay for lay in self.layers if lay in c.b.layers and lay != la]:
-                wire = self._one_via(router, c, la, lb, rule)
-                if wire:
-                    return wire
-        for layer in [lay for lay in self.layers if lay in c.a.layers and lay in c.b.layers]:
-            wire = self._two_vias(router, c, layer, rule)
-            if wire:
-                return wire
-        return None
+        if len(self.layers) < 2 or self.calls >= self.budget:
+            return None
+        self.calls += 1
+        result = router.route_layers(LayeredRequest(
+            net=c.net, start=c.a.at, start_layers=c.a.layers, goal=c.b.at,
+            goal_layers=c.b.layers, width=rule.width, clearance=rule.clearance,
+            via_diameter=rule.via_diameter, layers=self.layers, reach=(c.a.reach, c.b.reach),
+            via_cost=self.via_cost))
+        if result.legs is None:
+            return None
+        return Wire(c.net, result.legs, result.vias)
 
     def _leg(self, router, net, layer, a: Point, b: Point, rule: NetRule):
         if a == b:
@@ -282,134 +286,6 @@ class Negotiator:
         result = router.route(RouteRequest(net=net, layer=layer, start=a, goal=b,
                                            width=rule.width, clearance=rule.clearance))
         return None if result.path is None else tuple((int(x), int(y)) for x, y in result.path)
-
-    def _one_via(self, router, c: Connection, la: str, lb: str, rule: NetRule) -> Wire | None:
-        """a on `la`, a via, b on `lb`: vias at spots around the ends first, then along a guide
-        path (a to b's place on `la`, via near b; a's place to b on `lb`, via near a), whose
-        part up to (or from) the via is kept as one leg."""
-        for v in self._spots(router, c, rule)[:VIA_TRIES]:
-            first = self._leg(router, c.net, la, c.a.at, v, rule)
-            if first is None:
-                continue
-            second = self._leg(router, c.net, lb, v, c.b.at, rule)
-            if second is not None:
-                return Wire(c.net, ((la, first), (lb, second)), (v,))
-        guide = self._leg(router, c.net, la, c.a.at, c.b.at, rule)
-        for head, v in self._guide_spots(router, c.net, guide, rule, from_end=True):
-            second = self._leg(router, c.net, lb, v, c.b.at, rule)
-            if second is not None:
-                return Wire(c.net, ((la, head), (lb, second)), (v,))
-        guide = self._leg(router, c.net, lb, c.a.at, c.b.at, rule)
-        for tail, v in self._guide_spots(router, c.net, guide, rule, from_end=False):
-            first = self._leg(router, c.net, la, c.a.at, v, rule)
-            if first is not None:
-                return Wire(c.net, ((la, first), (lb, tail)), (v,))
-        return None
-
-    def _guide_spots(self, router, net: str, guide, rule: NetRule, from_end: bool) -> list:
-        """(part of `guide` up to the spot, or from it; the spot) for the via spots on the
-        guide (`_cuts`), nearest the guide's end first (`from_end`) or its start; at most
-        GUIDE_TRIES."""
-        cuts = self._cuts(router, net, guide, rule)
-        chosen = list(reversed(cuts)) if from_end else cuts
-        out = []
-        for _, k, point in chosen[:GUIDE_TRIES]:
-            part = guide[:k + 1] + (point,) if from_end else (point,) + guide[k + 1:]
-            out.append((part, point))
-        return out
-
-    def _cuts(self, router, net: str, guide, rule: NetRule) -> list:
-        """Points on a guide path every GUIDE_STEP (exact octilinear steps) where a via fits,
-        as (distance from the start, segment index, point), nearest the start first."""
-        if not guide or len(guide) < 2:
-            return []
-        cuts = []
-        run = 0.0
-        for k, (a, b) in enumerate(zip(guide, guide[1:])):
-            dx, dy = b[0] - a[0], b[1] - a[1]
-            steps = max(abs(dx), abs(dy))
-            if steps == 0:
-                continue
-            unit = (dx // steps if dx else 0, dy // steps if dy else 0)
-            length = math.hypot(dx, dy)
-            for n in range(GUIDE_STEP, steps, GUIDE_STEP):
-                cuts.append((run + length * n / steps, k, (a[0] + unit[0] * n,
-                                                           a[1] + unit[1] * n)))
-            run += length
-        if not cuts:
-            return []
-        fits = router.vias_fit(net, [p for _, _, p in cuts], rule.via_diameter, rule.clearance,
-                               self.layers)
-        return [cut for cut, ok in zip(cuts, fits) if ok]
-
-    def _guided_two_vias(self, router, c: Connection, layer: str, middle_layer: str,
-                         rule: NetRule) -> Wire | None:
-        """a and b on `layer`, the way between them on `middle_layer`: a guide path from a's
-        place to b's there, a via on it near each end, short legs on `layer` to the vias."""
-        guide = self._leg(router, c.net, middle_layer, c.a.at, c.b.at, rule)
-        cuts = self._cuts(router, c.net, guide, rule)
-        half = GUIDE_TRIES // 2
-        for d1, k1, p1 in cuts[:half]:
-            first = self._leg(router, c.net, layer, c.a.at, p1, rule)
-            if first is None:
-                continue
-            for d2, k2, p2 in list(reversed(cuts))[:half]:
-                if d2 <= d1:
-                    continue
-                last = self._leg(router, c.net, layer, p2, c.b.at, rule)
-                if last is not None:
-                    middle = (p1, *guide[k1 + 1:k2 + 1], p2)
-                    return Wire(c.net, ((layer, first), (middle_layer, middle),
-                                        (layer, last)), (p1, p2))
-        return None
-
-    def _two_vias(self, router, c: Connection, layer: str, rule: NetRule) -> Wire | None:
-        others = [lay for lay in self.layers if lay != layer]
-        if not others:
-            return None
-        for middle_layer in others:
-            wire = self._guided_two_vias(router, c, layer, middle_layer, rule)
-            if wire:
-                return wire
-        near_a = self._spots(router, c, rule, c.a)[:VIA_PAIR_TRIES]
-        near_b = self._spots(router, c, rule, c.b)[:VIA_PAIR_TRIES]
-        for va in near_a:
-            first = self._leg(router, c.net, layer, c.a.at, va, rule)
-            if first is None:
-                continue
-            for vb in near_b:
-                if vb == va:
-                    continue
-                for middle_layer in others:
-                    middle = self._leg(router, c.net, middle_layer, va, vb, rule)
-                    if middle is None:
-                        continue
-                    last = self._leg(router, c.net, layer, vb, c.b.at, rule)
-                    if last is not None:
-                        return Wire(c.net, ((layer, first), (middle_layer, middle),
-                                            (layer, last)), (va, vb))
-        return None
-
-    def _spots(self, router, c: Connection, rule: NetRule, near: End | None = None) -> list:
-        """Via spots that fit: rings around the ends (or `near` only) and points along the
-        straight line, nearest the line's midpoint first (`near`: nearest that end)."""
-        ends = [near] if near else [c.a, c.b]
-        spots: set[Point] = set()
-        for end in ends:
-            unit = end.reach + rule.via_diameter / 2 + rule.clearance
-            for step in RING_STEPS:
-                ring = np.rint(np.array(end.at) + HEADINGS * unit * step).astype(np.int64)
-                spots |= {(int(x), int(y)) for x, y in ring}
-        if near is None:
-            a, b = np.array(c.a.at, dtype=float), np.array(c.b.at, dtype=float)
-            spots |= {(int(round(x)), int(round(y))) for x, y in
-                      (a + t * (b - a) for t in (0.25, 0.5, 0.75))}
-        ordered = sorted(spots)
-        fits = router.vias_fit(c.net, ordered, rule.via_diameter, rule.clearance, self.layers)
-        target = near.at if near else ((c.a.x + c.b.x) / 2, (c.a.y + c.b.y) / 2)
-        chosen = [p for p, ok in zip(ordered, fits) if ok]
-        return sorted(chosen, key=lambda p: ((p[0] - target[0]) ** 2 + (p[1] - target[1]) ** 2,
-                                             p))
 
 
 def _rank(plan: Plan) -> tuple:
