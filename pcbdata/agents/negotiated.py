@@ -77,6 +77,16 @@ def wire_actions(view: BoardView, wire: Wire) -> list[dict]:
     return out
 
 
+def _net_open(obs, net: int) -> bool:
+    """Whether the observation's ratsnest still has an open connection of `net` (True when
+    the list is cut at its capacity: it may not show them all)."""
+    geometry = obs["routing_geometry"]
+    rows, count = geometry["ratsnest"], int(geometry["ratsnest_count"])
+    if count >= len(rows):
+        return True
+    return bool(any(int(row[1]) == net for row in rows[:count] if row[0]))
+
+
 class NegotiatedAgent:
     """`act(obs, info)` over the environment's actions; see the module doc."""
 
@@ -89,13 +99,13 @@ class NegotiatedAgent:
         self._planned = False
         self.plan: Plan | None = None
         self.done = False
-        self.refused_wires = 0
+        self.refused_wires = self.skipped_wires = 0
 
     def attach(self, env) -> None:
         """The runner hands over the environment (its `board_view` only is read)."""
         self._view = env.board_view
         self._queue, self._current, self._planned, self.done = [], [], False, False
-        self.refused_wires = 0
+        self.refused_wires = self.skipped_wires = 0
 
     def act(self, obs, info) -> dict:
         if not self._planned:
@@ -103,20 +113,26 @@ class NegotiatedAgent:
         if self._current and self._refused(info):
             self.refused_wires += 1
             self._current = [{"type": NET_END}] if info.get("phase") != "no_net" else []
-        if not self._current:
+        while not self._current:
             if not self._queue:
                 self.done = True
                 return {"type": NET_END} if info.get("phase") != "no_net" else {"type": 0}
-            self._current = self._queue.pop(0)
+            wire = self._queue.pop(0)
+            if _net_open(obs, wire[0]["net"]):
+                self._current = wire
+            else:  # joined already through other copper: laying it would only add copper
+                self.skipped_wires += 1
         return self._current.pop(0)
 
     def report(self) -> dict:
         """The plan's counts for the rollout's JSON: connections, the open ones by cause
-        (`negotiate.CAUSES`), route calls, rip-ups, rounds, and wires the environment refused."""
+        (`negotiate.CAUSES`), route calls, rip-ups, rounds, wires the environment refused and
+        wires left out because their net was joined already."""
         if self.plan is None:
             return {}
         causes = {c: sum(1 for v in self.plan.open.values() if v == c) for c in CAUSES}
-        return {**self.plan.stats, "open": causes, "refused_wires": self.refused_wires}
+        return {**self.plan.stats, "open": causes, "refused_wires": self.refused_wires,
+                "skipped_wires": self.skipped_wires}
 
     @staticmethod
     def _refused(info) -> bool:
