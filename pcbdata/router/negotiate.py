@@ -35,14 +35,23 @@ import shapely
 
 from pcbdata.router.clearance import TOLERANCE
 from pcbdata.router.connections import Connection
-from pcbdata.router.geometry import BoardGeometry, CopperItem, Point, copper_core
+from pcbdata.router.geometry import (
+    BoardGeometry,
+    CopperItem,
+    Point,
+    copper_core,
+    one_bend_paths,
+)
 from pcbdata.router.layered import VIA_COST, LayeredRequest
-from pcbdata.router.requests import RouteRequest
+from pcbdata.router.soft import SoftCopper
 from pcbdata.router.walkaround import WalkaroundRouter
 
 #: Route calls a plan may make (the budget), and rip-ups of one connection at most.
 BUDGET_ROUTES = 3000
 MAX_RIPS = 3
+#: What crossing a planned connection costs the rip-up search, in nm of track (once more for
+#: every time that connection was ripped up before).
+RIP_PRICE = 5_000_000
 #: Via spots tried per layer change (nearest the straight line first), and per end for the
 #: two-via way (each pair costs up to three route calls).
 VIA_TRIES = 6
@@ -103,13 +112,14 @@ class Negotiator:
                  rules: dict[str, NetRule], connections: list[Connection],
                  budget_routes: int = BUDGET_ROUTES, max_rips: int = MAX_RIPS,
                  restarts: int = RESTARTS, router_nodes: int | None = None,
-                 router_checks: int | None = None, via_cost: int = VIA_COST):
+                 router_checks: int | None = None, via_cost: int = VIA_COST,
+                 rip_price: int = RIP_PRICE):
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
         self.connections = list(connections)
         self.budget, self.max_rips, self.restarts = budget_routes, max_rips, restarts
-        self.via_cost = via_cost
+        self.via_cost, self.rip_price = via_cost, rip_price
         self.bare = WalkaroundRouter(board, **budgets)  # the board without planned copper
         self.router = self.bare.with_board(board)  # with all of it
         self.fixed_router = self.bare.with_board(board)  # with what may not be ripped up
@@ -194,7 +204,7 @@ class Negotiator:
             return "budget"
         if self._route_here(index):
             return ""
-        wire = self._way(self._fixed(), index)
+        wire = self._way(self._fixed(), index, self._soft(index))
         if wire is None:
             return "budget" if self.calls >= self.budget else "congestion"
         blockers = self._blockers(index, wire)
@@ -256,36 +266,43 @@ class Negotiator:
 
     # --- ways ---
 
-    def _way(self, router: WalkaroundRouter, index: int) -> Wire | None:
-        """A way for connection `index`: a walkaround path on a layer both ends are on, else
-        the layered search (vias as moves of the search, `pcbdata.router.layered`)."""
+    def _soft(self, index: int) -> SoftCopper:
+        """The planned copper of other nets that may still be ripped up, each connection at
+        its price: `rip_price` nm of track, once more for every time it was ripped."""
+        net = self.connections[index].net
+        owners = [k for k in sorted(self.items) if self.rips[k] < self.max_rips
+                  and self.connections[k].net != net]
+        items = tuple(i for k in owners for i in self.items[k])
+        return SoftCopper(items, tuple(k for k in owners for _ in self.items[k]),
+                          {k: self.rip_price * (1 + self.rips[k]) for k in owners})
+
+    def _way(self, router: WalkaroundRouter, index: int,
+             soft: SoftCopper | None = None) -> Wire | None:
+        """A way for connection `index`: a straight or one-bend line on a layer both ends are
+        on, else the layered search (every layer, vias as moves of the search,
+        `pcbdata.router.layered`); with `soft`, only the layered search, which may cross that
+        copper at its price."""
         c = self.connections[index]
         rule = self.rules[c.net]
-        for layer in [lay for lay in self.layers if lay in c.a.layers and lay in c.b.layers]:
-            path = self._leg(router, c.net, layer, c.a.at, c.b.at, rule)
-            if path:
-                return Wire(c.net, ((layer, path),))
-        if len(self.layers) < 2 or self.calls >= self.budget:
+        if soft is None:
+            for layer in [lay for lay in self.layers
+                          if lay in c.a.layers and lay in c.b.layers]:
+                for path in one_bend_paths(c.a.at, c.b.at):
+                    if all(router.segment_is_clear(c.net, layer, p, q, rule.width,
+                                                   rule.clearance)
+                           for p, q in zip(path, path[1:])):
+                        return Wire(c.net, ((layer, tuple(path)),))
+        if self.calls >= self.budget:
             return None
         self.calls += 1
         result = router.route_layers(LayeredRequest(
             net=c.net, start=c.a.at, start_layers=c.a.layers, goal=c.b.at,
             goal_layers=c.b.layers, width=rule.width, clearance=rule.clearance,
             via_diameter=rule.via_diameter, layers=self.layers, reach=(c.a.reach, c.b.reach),
-            via_cost=self.via_cost))
+            via_cost=self.via_cost), soft)
         if result.legs is None:
             return None
         return Wire(c.net, result.legs, result.vias)
-
-    def _leg(self, router, net, layer, a: Point, b: Point, rule: NetRule):
-        if a == b:
-            return (a,)
-        if self.calls >= self.budget:
-            return None
-        self.calls += 1
-        result = router.route(RouteRequest(net=net, layer=layer, start=a, goal=b,
-                                           width=rule.width, clearance=rule.clearance))
-        return None if result.path is None else tuple((int(x), int(y)) for x, y in result.path)
 
 
 def _rank(plan: Plan) -> tuple:

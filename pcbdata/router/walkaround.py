@@ -66,6 +66,7 @@ from pcbdata.router.geometry import (
 from pcbdata.router.layered import LayeredRequest, LayeredResult, route_layers
 from pcbdata.router.requests import RouteRequest, RouteResult
 from pcbdata.router.search import _mm, _Search
+from pcbdata.router.soft import SoftCopper
 
 # The search budget (see WalkaroundRouter): expansions and link checks.
 BUDGET_NODES = 20_000
@@ -202,10 +203,14 @@ class WalkaroundRouter:
         result.stats["seconds"] = time.perf_counter() - clock
         return result
 
-    def route_layers(self, request: LayeredRequest) -> LayeredResult:
+    def route_layers(self, request: LayeredRequest, soft: SoftCopper | None = None
+                     ) -> LayeredResult:
         """A way over several layers with vias as moves of the search
-        (`pcbdata.router.layered`: a `LayeredRequest`, a `LayeredResult`), remembered like
-        `route`'s answers, under the state of every layer it may use."""
+        (`pcbdata.router.layered`), remembered like `route`'s answers under the state of every
+        layer it may use; with `soft`, copper it may cross at a price (`pcbdata.router.soft`;
+        not remembered)."""
+        if soft is not None:
+            return route_layers(self, request, soft)
         key = (tuple(self._layer_key(lay) for lay in request.layers), request,
                self.budget_nodes, self.budget_checks)
         known = self._shared.routes.get(key)
