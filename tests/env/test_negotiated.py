@@ -6,8 +6,8 @@ import pytest
 
 from tests.helpers import skip_without_snapshot
 
-#: A D3-B pick whose plan needs rip-ups (two connections ripped and placed again).
-RIPPED = "ATtiny461Breakout_ATTiny461DevBoard"
+#: A D3-B pick whose plan needs rip-ups: without them five connections stay open.
+RIPPED = "kicad-workshop_fancyboard"
 SMALL = "maytal_Maytal"
 
 
@@ -34,17 +34,69 @@ def _episode(d3_set, board_id: str, tmp_path, name: str):
         env.close()
 
 
-def _open_without_rip_ups(d3_set, board_id: str) -> int:
+def _view(d3_set, board_id: str):
     import pcbdata.env
-    from pcbdata.agents.negotiated import plan_board
 
     env = pcbdata.env.make(d3_set, "d3-b", split="test", drc="terminal")
     try:
         env.reset(seed=0, options={"board_id": board_id})
-        plan, _ = plan_board(env.unwrapped.board_view(), max_rips=0, restarts=0)
-        return len(plan.open)
+        return env.unwrapped.board_view()
     finally:
         env.close()
+
+
+def _open_without_rip_ups(d3_set, board_id: str) -> int:
+    from pcbdata.agents.negotiated import plan_board
+
+    plan, _ = plan_board(_view(d3_set, board_id), max_rips=0, restarts=0)
+    return len(plan.open)
+
+
+def _assert_legal(view, plan, connections) -> None:
+    """Every planned track and via keeps its clearance to every other net's copper, the
+    board's and the plan's (exact shapes, independently of the router), and ends where its
+    connection does."""
+    import shapely
+
+    from pcbdata.router.geometry import copper_core
+    from pcbdata.router.negotiate import NetRule
+
+    static = view.static
+    rules = {n.name: NetRule(n.track_width, n.clearance, n.via_diameter, n.via_drill)
+             for n in static.nets}
+    planned = [item for w in plan.wires.values()
+               for item in w.items(rules[w.net], tuple(static.layers))]
+    everything = list(view.geometry.copper) + planned
+    shapes = [copper_core(item) for item in everything]
+    tree = shapely.STRtree([core for core, _ in shapes])
+    for k, item in enumerate(planned, start=len(view.geometry.copper)):
+        core, radius = shapes[k]
+        for j in tree.query(core, predicate="dwithin", distance=radius + 2_000_000):
+            other = everything[j]
+            if other.net == item.net or not set(other.layers) & set(item.layers):
+                continue
+            gap = shapely.distance(core, shapes[j][0]) - radius - shapes[j][1]
+            assert gap >= max(item.clearance, other.clearance) - 1e-3, (item, other, gap)
+    for index, wire in plan.wires.items():
+        c = connections[index]
+        assert wire.legs[0][1][0] == c.a.at and wire.legs[-1][1][-1] == c.b.at
+
+
+def test_negotiated_search_frees_what_a_plain_plan_leaves_open(d3_set):
+    """On a real board the rip-up search (crossing planned copper at a price, the crossed
+    connections ripped and placed again) completes a plan that leaves five connections open
+    without it; the plan is legal, uses vias inside its searches, and is the same twice."""
+    from pcbdata.agents.negotiated import plan_board
+
+    view = _view(d3_set, _board_id(d3_set, RIPPED))
+    plain, _ = plan_board(view, max_rips=0, restarts=0)
+    assert len(plain.open) >= 1
+    plan, connections = plan_board(view)
+    assert plan.open == {} and plan.stats["rips"] >= 1
+    assert any(w.vias for w in plan.wires.values())
+    _assert_legal(view, plan, connections)
+    again, _ = plan_board(_view(d3_set, _board_id(d3_set, RIPPED)))
+    assert again.wires == plan.wires and again.stats == plan.stats
 
 
 @pytest.mark.slow
