@@ -34,7 +34,7 @@ from pcbdata.router.soft import SoftCopper, SoftLayer
 #: What a via costs in the search, in nm of track.
 VIA_COST = 2_000_000
 #: Links checked per expansion at most: to the nearest nodes (and the goal).
-LINKS = 64
+LINKS = 128
 #: Ring distances of via spots around an end, in units of (end reach + via radius + clearance).
 RING_STEPS = (1.0, 1.5, 2.2)
 

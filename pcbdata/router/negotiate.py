@@ -3,27 +3,29 @@ rip-up and reroute, before any copper is laid.
 
 Connections (`pcbdata.router.connections`): per net, a minimum spanning tree over its pad
 clusters (Kruskal on the shortest pad-to-pad distance between two clusters), routed shortest
-first. A connection is tried by the
-walkaround router (`pcbdata.router.walkaround`) on a layer both ends are on, then through one
-via (ends on different layers), then through two vias (a leg on another layer between two
-vias, for ends on one side whose own layer is blocked); via spots are a ring around each end
-and points along the straight line, those a via fits at (`vias_fit`) nearest the straight
-line first.
+first. A connection is tried by the walkaround router (`pcbdata.router.walkaround`) on a layer
+both ends are on, then by the layered search (`pcbdata.router.layered`: every layer at once,
+vias as moves of the search, a via wherever one fits).
 
-A connection that finds no way is searched again on the board without the other connections'
-planned copper (pads, zones, existing copper stay). If that finds a way, the connections whose
-planned copper the way passes too close to are ripped up (exact distances, as push_n_shove's
-blockers), the connection takes its way and the ripped ones are queued again ahead of the rest;
-a connection is ripped at most `max_rips` times (then it is never a blocker again), so the loop
-ends. A connection with no way even on the board without planned copper is *boxed in*; one
-that has a way there but only through copper that may not be ripped is *congested*; one that
-ran out of the budget is *budget*. The best state seen (most connections routed, then least
-wire) is the plan. Work is counted in route calls (`budget_routes`), never timed: the same
-board gives the same plan on any machine.
+A connection that finds no way is searched again, by the layered search, on the board without
+the other connections' planned copper that may still be ripped up, that copper being *soft*:
+a way may cross it at a price (`rip_price` nm of track per crossed connection, once more for
+each time that connection was ripped up before; `pcbdata.router.soft`). If no priced way is
+found, a way that ignores the soft copper is taken. The connections whose planned copper the
+way passes too close to are ripped up (exact distances), the connection takes its way and the
+ripped ones are queued again ahead of the rest; a connection is ripped at most `max_rips`
+times (then it is hard copper, never crossed again), so the loop ends. A connection with no
+way even on the board without planned copper is *boxed in*; one that has a way there but only
+through copper that may not be ripped is *congested*; one that ran out of the budget is
+*budget*. Later rounds put the connections left open first; the best state seen (most
+connections routed, then least wire) is the plan. Work is counted in route calls
+(`budget_routes`) and the searches' expansions and link checks, never timed: the same board
+gives the same plan on any machine.
 
-Every leg is a walkaround path and every via fits where it stands, so the planned copper
-keeps clearance by construction; KiCad judges it when it is laid (`pcbdata.agents.negotiated`
-lays it through the environment's free-coordinate actions). Nothing here imports KiCad.
+Every leg is a walkaround or layered path and every via fits where it stands, so the planned
+copper keeps clearance by construction; KiCad judges it when it is laid
+(`pcbdata.agents.negotiated` lays it through the environment's free-coordinate actions).
+Nothing here imports KiCad.
 """
 from __future__ import annotations
 
@@ -40,9 +42,9 @@ from pcbdata.router.geometry import (
     CopperItem,
     Point,
     copper_core,
-    one_bend_paths,
 )
 from pcbdata.router.layered import VIA_COST, LayeredRequest
+from pcbdata.router.requests import RouteRequest
 from pcbdata.router.soft import SoftCopper
 from pcbdata.router.walkaround import WalkaroundRouter
 
@@ -205,6 +207,8 @@ class Negotiator:
         if self._route_here(index):
             return ""
         wire = self._way(self._fixed(), index, self._soft(index))
+        if wire is None:  # the way that crosses planned copper regardless of its price
+            wire = self._way(self._fixed(), index)
         if wire is None:
             return "budget" if self.calls >= self.budget else "congestion"
         blockers = self._blockers(index, wire)
@@ -278,8 +282,8 @@ class Negotiator:
 
     def _way(self, router: WalkaroundRouter, index: int,
              soft: SoftCopper | None = None) -> Wire | None:
-        """A way for connection `index`: a straight or one-bend line on a layer both ends are
-        on, else the layered search (every layer, vias as moves of the search,
+        """A way for connection `index`: a walkaround path on a layer both ends are on, else
+        the layered search (every layer, vias as moves of the search,
         `pcbdata.router.layered`); with `soft`, only the layered search, which may cross that
         copper at its price."""
         c = self.connections[index]
@@ -287,11 +291,11 @@ class Negotiator:
         if soft is None:
             for layer in [lay for lay in self.layers
                           if lay in c.a.layers and lay in c.b.layers]:
-                for path in one_bend_paths(c.a.at, c.b.at):
-                    if all(router.segment_is_clear(c.net, layer, p, q, rule.width,
-                                                   rule.clearance)
-                           for p, q in zip(path, path[1:])):
-                        return Wire(c.net, ((layer, tuple(path)),))
+                path = self._leg(router, c.net, layer, c.a.at, c.b.at, rule)
+                if path:
+                    return Wire(c.net, ((layer, path),))
+            if len(self.layers) < 2:
+                return None
         if self.calls >= self.budget:
             return None
         self.calls += 1
@@ -303,6 +307,17 @@ class Negotiator:
         if result.legs is None:
             return None
         return Wire(c.net, result.legs, result.vias)
+
+
+    def _leg(self, router, net, layer, a: Point, b: Point, rule: NetRule):
+        if a == b:
+            return (a,)
+        if self.calls >= self.budget:
+            return None
+        self.calls += 1
+        result = router.route(RouteRequest(net=net, layer=layer, start=a, goal=b,
+                                           width=rule.width, clearance=rule.clearance))
+        return None if result.path is None else tuple((int(x), int(y)) for x, y in result.path)
 
 
 def _rank(plan: Plan) -> tuple:
