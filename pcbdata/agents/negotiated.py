@@ -34,7 +34,8 @@ def _mm(point) -> tuple[float, float]:
 
 def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES, seed: int = 0,
                **options) -> tuple[Plan, list]:
-    """The negotiated plan of a board's open connections and those connections (seed 0:
+    """The negotiated plan of a board's open connections and those connections, as planned
+    (an end whose pad centre no track can start at moved to an access point; seed 0:
     shortest first; another seed: another order, `negotiate.seeded_order`); `options` go to
     `Negotiator` (max_rips, restarts, router budgets)."""
     static = view.static
@@ -52,7 +53,7 @@ def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES, seed: int = 
     layers = static.layers if static.grid_pitch is None else static.layers[:1]
     negotiator = Negotiator(view.geometry, layers, rules, connections,  # type: ignore[arg-type]
                             budget_routes=budget_routes, **options)
-    return negotiator.run(), connections
+    return negotiator.run(), negotiator.connections
 
 
 def wire_actions(view: BoardView, wire: Wire) -> list[dict]:

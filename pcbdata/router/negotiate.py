@@ -33,10 +33,11 @@ import math
 from collections import deque
 from dataclasses import dataclass, field, replace
 
+import numpy as np
 import shapely
 
 from pcbdata.router.clearance import TOLERANCE
-from pcbdata.router.connections import Connection
+from pcbdata.router.connections import Connection, End
 from pcbdata.router.geometry import (
     BoardGeometry,
     CopperItem,
@@ -67,6 +68,8 @@ GUIDE_TRIES = 6
 #: Rounds after the first, each with the connections left open placed first.
 RESTARTS = 2
 CAUSES = ("boxed_in", "congestion", "budget")
+#: Grid step (nm) of access points inside a pad whose centre a track cannot start at.
+ACCESS_STEP = 50_000
 
 
 @dataclass(frozen=True)
@@ -119,10 +122,10 @@ class Negotiator:
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
-        self.connections = list(connections)
         self.budget, self.max_rips, self.restarts = budget_routes, max_rips, restarts
         self.via_cost, self.rip_price = via_cost, rip_price
         self.bare = WalkaroundRouter(board, **budgets)  # the board without planned copper
+        self.connections = [_accessible(self.bare, rules[c.net], c) for c in connections]
         self.router = self.bare.with_board(board)  # with all of it
         self.fixed_router = self.bare.with_board(board)  # with what may not be ripped up
         self.calls = 0
@@ -318,6 +321,49 @@ class Negotiator:
         result = router.route(RouteRequest(net=net, layer=layer, start=a, goal=b,
                                            width=rule.width, clearance=rule.clearance))
         return None if result.path is None else tuple((int(x), int(y)) for x, y in result.path)
+
+
+def _accessible(router: WalkaroundRouter, rule: NetRule, c: Connection) -> Connection:
+    """`c`, or where a track cannot start at an end's pad centre on any of its layers (a pad
+    whose centre lies off the board or too near other copper) and can at the other end, `c`
+    from the other end to an access point: the point of that pad's copper nearest its centre
+    where a track can end (the agent starts a wire at a pad centre, and may end it anywhere)."""
+    a_ok, b_ok = (_open_layers(router, rule, c.net, end) for end in (c.a, c.b))
+    if a_ok and b_ok or not (a_ok or b_ok):
+        return c
+    good, bad = (c.a, c.b) if a_ok else (c.b, c.a)
+    point = _access_point(router, rule, c.net, bad)
+    if point is None:
+        return c
+    return Connection(c.net, good, End(point[0], point[1], point[2], 0))
+
+
+def _open_layers(router, rule: NetRule, net: str, end: End) -> tuple[str, ...]:
+    return tuple(lay for lay in end.layers if not router._point_problem(
+        router._rules(net, lay, rule.width, rule.clearance), end.at))
+
+
+def _access_point(router, rule: NetRule, net: str, end: End):
+    """(x, y, layers) of the nearest point to `end` inside its pad's copper (a grid of
+    ACCESS_STEP) where a track of the net's width can end, or None."""
+    pads = [item for item in router.board.copper if item.kind == "pad" and item.net == net
+            and set(end.layers) & set(item.layers)
+            and shapely.contains_xy(copper_core(item)[0], *end.at)]
+    if not pads:
+        return None
+    shape = copper_core(pads[0])[0]
+    span = np.arange(-end.reach, end.reach + 1, ACCESS_STEP)
+    grid = np.array([(end.x + dx, end.y + dy) for dx in span for dy in span], dtype=np.int64)
+    grid = grid[shapely.contains_xy(shape, grid[:, 0], grid[:, 1])]
+    grid = grid[np.lexsort((grid[:, 1], grid[:, 0], np.hypot(*(grid - end.at).T)))]
+    dots = np.repeat(grid[:, None, :].astype(float), 2, axis=1)
+    inside = router._inside(grid.astype(float))
+    fits = {lay: inside & ~router._rules(net, lay, rule.width, rule.clearance).failing(dots)
+            for lay in end.layers}
+    for k in np.flatnonzero(np.any(list(fits.values()), axis=0)):
+        return int(grid[k, 0]), int(grid[k, 1]), tuple(lay for lay in end.layers
+                                                       if fits[lay][k])
+    return None
 
 
 def _rank(plan: Plan) -> tuple:
