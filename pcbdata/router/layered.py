@@ -10,9 +10,10 @@ layer, the edge, the net's own drilled copper). Links on a layer are the walkaro
 clearance by construction, and every via fits where it stands.
 
 A* over all layers (a via costs `via_cost` nm of track), inside a window around the ends that
-grows while it holds no way; the budget counts expansions and link checks as the walkaround
-search does. The answer is legs (layer, octilinear path) joined by vias, or None with the
-reason.
+grows while it holds no way; an expansion checks links to its `LINKS` nearest nodes and the
+goal (far links on a crowded board are nearly all blocked); the budget counts expansions and
+link checks as the walkaround search does. The answer is legs (layer, octilinear path) joined
+by vias, or None with the reason.
 """
 from __future__ import annotations
 
