@@ -91,3 +91,31 @@ def _flat(req: LayeredRequest):
     from pcbdata.router.requests import RouteRequest
 
     return RouteRequest(req.net, "F.Cu", req.start, req.goal, req.width, req.clearance)
+
+
+def gated_board() -> tuple[BoardGeometry, CopperItem]:
+    """F.Cu only: a wall with a near gate (y 9-11) and a far one (y 17-19, inside the search's
+    first window); a track of net X fills the near gate (soft copper in the tests)."""
+    copper = (rect("GND", ("F.Cu",), 14, 0, 16, 9), rect("GND", ("F.Cu",), 14, 11, 16, 17),
+              rect("GND", ("F.Cu",), 14, 19, 16, 30), rect("GND", ("B.Cu",), 0, 0, 30, 30))
+    track = CopperItem("track", "X", ("F.Cu",), start=(13 * MM, 10 * MM),
+                       end=(17 * MM, 10 * MM), width=1_200_000, clearance=CLEARANCE)
+    return BoardGeometry(OUTLINE, copper, 300_000), track
+
+
+def test_soft_copper_is_crossed_at_its_price_or_gone_round():
+    from pcbdata.router.soft import SoftCopper
+
+    board, track = gated_board()
+    with_track = BoardGeometry(board.outline, board.copper + (track,), board.edge_clearance)
+    req = request(layers=("F.Cu",))
+    near = WalkaroundRouter(with_track).route_layers(req)  # hard: the far gate only
+    assert near.legs is not None and max(y for _, y in near.legs[0][1]) > 16 * MM
+    router = WalkaroundRouter(board)
+    cheap = router.route_layers(req, SoftCopper((track,), (7,), {7: 1_000_000}))
+    path = cheap.legs[0][1]
+    assert max(y for _, y in path) < 12 * MM  # through the near gate, across the track
+    assert_legal(board, cheap.legs, cheap.vias, req)
+    dear = router.route_layers(req, SoftCopper((track,), (7,), {7: 100_000_000}))
+    assert max(y for _, y in dear.legs[0][1]) > 16 * MM  # the detour costs less
+    assert_legal(with_track, dear.legs, dear.vias, req)
