@@ -2,7 +2,9 @@
 copper of other connections, each connection with its price (`SoftCopper`). The layered
 search (`pcbdata.router.layered`) adds to a link's length the prices of the connections whose
 copper it comes too close to (exact distances, each connection once per segment), and to a
-via's cost those its via comes too close to; the planner then rips those connections up."""
+via's cost those its via comes too close to; the planner then rips those connections up.
+The search's first window that holds a way gives the answer: a cheaper way farther out is not
+looked for."""
 from __future__ import annotations
 
 from dataclasses import dataclass
