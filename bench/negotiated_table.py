@@ -3,14 +3,20 @@ cause (boxed-in pin, congestion, budget), route calls, rip-ups, rounds, and what
 the end (unconnected items, DRV), with each rollout's time; beside it, where given, another
 agent's runs on the same boards (U and DRV per board, best rollout by fewest U).
 
-    python bench/negotiated_table.py RUNS [--vs OTHER_RUNS] [--json bench/runs/X.json]
+    python bench/negotiated_table.py RUNS [--vs OTHER_RUNS [--vs-name NAME]]
+        [--json bench/runs/X.json] [--note TEXT]
+
+The JSON keeps the command, the date, the machine and its load with the rows.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import platform
 import statistics
 import sys
+from datetime import UTC, datetime
 from pathlib import Path
 
 CAUSES = ("boxed_in", "congestion", "budget")
@@ -23,7 +29,7 @@ def rollouts(runs: Path) -> dict[str, list[dict]]:
     return out
 
 
-def rows(runs: Path, other: Path | None) -> list[dict]:
+def rows(runs: Path, other: Path | None, name: str = "other") -> list[dict]:
     mine, theirs = rollouts(runs), rollouts(other) if other else {}
     table = []
     for board_id, records in sorted(mine.items()):
@@ -38,7 +44,9 @@ def rows(runs: Path, other: Path | None) -> list[dict]:
                "median_s": statistics.median(r["time_s"] for r in records)}
         if board_id in theirs:
             other_best = min(theirs[board_id], key=lambda r: (r["unconnected"], r["drv"]))
-            row.update(other_U=other_best["unconnected"], other_DRV=other_best["drv"])
+            row.update({f"{name}_U": other_best["unconnected"],
+                        f"{name}_DRV": other_best["drv"],
+                        f"{name}_s": statistics.median(r["time_s"] for r in theirs[board_id])})
         table.append(row)
     return table
 
@@ -57,13 +65,19 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("runs", type=Path, help="a `pcbdata rollout --agent negotiated` folder")
     parser.add_argument("--vs", type=Path, help="another agent's runs on the same boards")
+    parser.add_argument("--vs-name", default="other", help="prefix of the --vs columns")
     parser.add_argument("--json", type=Path, help="write the rows here")
+    parser.add_argument("--note", default="", help="how the runs were made (commands, load)")
     args = parser.parse_args()
-    table = rows(args.runs, args.vs)
+    table = rows(args.runs, args.vs, args.vs_name)
     print(markdown(table), end="")
     if args.json:
-        args.json.write_text(json.dumps({"command": " ".join(sys.argv), "rows": table},
-                                        indent=1) + "\n")
+        record = {"command": " ".join(sys.argv), "note": args.note,
+                  "date": datetime.now(UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+                  "machine": {"platform": platform.platform(), "cpus": os.cpu_count(),
+                              "python": platform.python_version()},
+                  "load_1_5_15": list(os.getloadavg()), "rows": table}
+        args.json.write_text(json.dumps(record, indent=1) + "\n")
     return 0
 
 

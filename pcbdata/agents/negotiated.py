@@ -4,11 +4,13 @@ environment's actions.
 
 It reads the board once, at its first step, through the environment's read-only plain-data view
 (`RoutingEnv.board_view`, handed over by the runner through `attach`); every piece of copper
-reaches KiCad through actions, in pcbdata's free-coordinate form: per wire `net_select`,
-`start_route` at the wire's first pad centre (with its layer), `make_line` to each corner and
-`make_via` at each via in `mark_obstacles` mode (the line exactly as planned: the planner kept
-the clearance), and `net_end`. A wire whose step the environment refuses is abandoned at that
-step (`net_end` takes up what it left dangling) and the agent goes on with the next one. The
+reaches KiCad through actions, in pcbdata's free-coordinate form: per run of wires of one net
+that begin where the one before ended (`chains`) `net_select`, `start_route` at the first
+wire's first pad centre (with its layer), `make_line` to each corner and `make_via` at each via
+in `mark_obstacles` mode (the line exactly as planned: the planner kept the clearance), and
+`net_end`; a run whose net the observation shows joined already is left out. A run whose
+step the environment refuses is abandoned at that step (`net_end` takes up what it left
+dangling) and the agent goes on with the next one. The
 plan is deterministic (counted work), so every rollout of a board is the same episode.
 """
 from __future__ import annotations
@@ -34,7 +36,8 @@ def _mm(point) -> tuple[float, float]:
 
 def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES, seed: int = 0,
                **options) -> tuple[Plan, list]:
-    """The negotiated plan of a board's open connections and those connections (seed 0:
+    """The negotiated plan of a board's open connections and those connections, as planned
+    (an end whose pad centre no track can start at moved to an access point; seed 0:
     shortest first; another seed: another order, `negotiate.seeded_order`); `options` go to
     `Negotiator` (max_rips, restarts, router budgets)."""
     static = view.static
@@ -52,17 +55,26 @@ def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES, seed: int = 
     layers = static.layers if static.grid_pitch is None else static.layers[:1]
     negotiator = Negotiator(view.geometry, layers, rules, connections,  # type: ignore[arg-type]
                             budget_routes=budget_routes, **options)
-    return negotiator.run(), connections
+    return negotiator.run(), negotiator.connections
 
 
-def wire_actions(view: BoardView, wire: Wire) -> list[dict]:
-    """The actions that lay one wire, from `net_select` to `net_end`."""
+def wire_actions(view: BoardView, wire: Wire, then: tuple[Wire, ...] = ()) -> list[dict]:
+    """The actions that lay one wire, from `net_select` to `net_end`, and after it the wires
+    `then`, each beginning where the one before ended, on its layer (no new start)."""
     static = view.static
     layer = {name: i for i, name in enumerate(static.layers)}
     first_layer, first_path = wire.legs[0]
     x, y = _mm(first_path[0])
     out: list[dict] = [{"type": NET_SELECT, "net": static.net_index(wire.net)},
-           {"type": START_ROUTE, "x": x, "y": y, "layer": layer[first_layer]}]
+                       {"type": START_ROUTE, "x": x, "y": y, "layer": layer[first_layer]}]
+    for each in (wire, *then):
+        out += _drawing(each, layer)
+    out.append({"type": NET_END})
+    return out
+
+
+def _drawing(wire: Wire, layer: dict[str, int]) -> list[dict]:
+    out = []
     for i, (_, path) in enumerate(wire.legs):
         corners = list(path[1:])
         via = i < len(wire.vias)
@@ -73,8 +85,51 @@ def wire_actions(view: BoardView, wire: Wire) -> list[dict]:
             vx, vy = _mm(wire.vias[i])
             out.append({"type": MAKE_VIA, "x": vx, "y": vy, "mode": MARK_OBSTACLES,
                         "layer": layer[wire.legs[i + 1][0]]})
-    out.append({"type": NET_END})
     return out
+
+
+def chains(wires: list[Wire]) -> list[tuple[Wire, ...]]:
+    """The wires in runs of one net, each wire of a run beginning where the one before it
+    ended, on that layer (a wire turned round where that makes it so): a run is laid from one
+    start, which saves the steps of releasing the net and starting again. Runs keep the order
+    of their first wires."""
+    by_net: dict[str, list[Wire]] = {}
+    for wire in wires:
+        by_net.setdefault(wire.net, []).append(wire)
+    runs = []
+    for wire in wires:
+        todo = by_net[wire.net]
+        if wire not in todo:
+            continue
+        todo.remove(wire)
+        run = [wire]
+        while True:
+            layer_, path = run[-1].legs[-1]
+            head = (layer_, path[-1])
+            found = next(((k, w) for k, original in enumerate(todo)
+                          for w in (original, _turned(original))
+                          if (w.legs[0][0], w.legs[0][1][0]) == head), None)
+            if found is None:
+                break
+            run.append(found[1])
+            todo.pop(found[0])
+        runs.append(tuple(run))
+    return runs
+
+
+def _turned(wire: Wire) -> Wire:
+    return Wire(wire.net, tuple((lay, tuple(reversed(path))) for lay, path in
+                                reversed(wire.legs)), tuple(reversed(wire.vias)))
+
+
+def _net_open(obs, net: int) -> bool:
+    """Whether the observation's ratsnest still has an open connection of `net` (True when
+    the list is cut at its capacity: it may not show them all)."""
+    geometry = obs["routing_geometry"]
+    rows, count = geometry["ratsnest"], int(geometry["ratsnest_count"])
+    if count >= len(rows):
+        return True
+    return bool(any(int(row[1]) == net for row in rows[:count] if row[0]))
 
 
 class NegotiatedAgent:
@@ -89,13 +144,13 @@ class NegotiatedAgent:
         self._planned = False
         self.plan: Plan | None = None
         self.done = False
-        self.refused_wires = 0
+        self.refused_wires = self.skipped_wires = 0
 
     def attach(self, env) -> None:
         """The runner hands over the environment (its `board_view` only is read)."""
         self._view = env.board_view
         self._queue, self._current, self._planned, self.done = [], [], False, False
-        self.refused_wires = 0
+        self.refused_wires = self.skipped_wires = 0
 
     def act(self, obs, info) -> dict:
         if not self._planned:
@@ -103,20 +158,26 @@ class NegotiatedAgent:
         if self._current and self._refused(info):
             self.refused_wires += 1
             self._current = [{"type": NET_END}] if info.get("phase") != "no_net" else []
-        if not self._current:
+        while not self._current:
             if not self._queue:
                 self.done = True
                 return {"type": NET_END} if info.get("phase") != "no_net" else {"type": 0}
-            self._current = self._queue.pop(0)
+            wire = self._queue.pop(0)
+            if _net_open(obs, wire[0]["net"]):
+                self._current = wire
+            else:  # joined already through other copper: laying it would only add copper
+                self.skipped_wires += 1
         return self._current.pop(0)
 
     def report(self) -> dict:
         """The plan's counts for the rollout's JSON: connections, the open ones by cause
-        (`negotiate.CAUSES`), route calls, rip-ups, rounds, and wires the environment refused."""
+        (`negotiate.CAUSES`), route calls, rip-ups, rounds, wires the environment refused and
+        wires left out because their net was joined already."""
         if self.plan is None:
             return {}
         causes = {c: sum(1 for v in self.plan.open.values() if v == c) for c in CAUSES}
-        return {**self.plan.stats, "open": causes, "refused_wires": self.refused_wires}
+        return {**self.plan.stats, "open": causes, "refused_wires": self.refused_wires,
+                "skipped_wires": self.skipped_wires}
 
     @staticmethod
     def _refused(info) -> bool:
@@ -128,5 +189,6 @@ class NegotiatedAgent:
             raise RuntimeError("NegotiatedAgent needs the environment: call attach(env) first")
         view = self._view()
         self.plan, _ = plan_board(view, self.budget_routes, self.seed)
-        self._queue = [wire_actions(view, w) for _, w in sorted(self.plan.wires.items())]
+        wires = [w for _, w in sorted(self.plan.wires.items())]
+        self._queue = [wire_actions(view, run[0], run[1:]) for run in chains(wires)]
         self._planned = True

@@ -14,6 +14,8 @@ paths and KiCad judges them, and it can be used on a board without the environme
 - `walkaround`: the walkaround router (keeps clearance to every other net and to the edge),
   over `clearance` (items' exact shapes, a layer's index, a request's rules) and `search`
   (the A* over octagon corners), with `ray_screen` (closed-form ray bounds);
+- `layered`: a search over every layer at once with vias as moves inside it, and `soft`:
+  copper such a search may cross at a price;
 - `shove`: push_n_shove's plan (other nets' tracks taken up and rerouted around a path);
 - `negotiate`: the whole board planned at once, with rip-up and reroute, over `connections`
   (the minimum spanning trees of the nets' pad clusters).

@@ -3,27 +3,29 @@ rip-up and reroute, before any copper is laid.
 
 Connections (`pcbdata.router.connections`): per net, a minimum spanning tree over its pad
 clusters (Kruskal on the shortest pad-to-pad distance between two clusters), routed shortest
-first. A connection is tried by the
-walkaround router (`pcbdata.router.walkaround`) on a layer both ends are on, then through one
-via (ends on different layers), then through two vias (a leg on another layer between two
-vias, for ends on one side whose own layer is blocked); via spots are a ring around each end
-and points along the straight line, those a via fits at (`vias_fit`) nearest the straight
-line first.
+first. A connection is tried by the walkaround router (`pcbdata.router.walkaround`) on a layer
+both ends are on, then by the layered search (`pcbdata.router.layered`: every layer at once,
+vias as moves of the search, a via wherever one fits).
 
-A connection that finds no way is searched again on the board without the other connections'
-planned copper (pads, zones, existing copper stay). If that finds a way, the connections whose
-planned copper the way passes too close to are ripped up (exact distances, as push_n_shove's
-blockers), the connection takes its way and the ripped ones are queued again ahead of the rest;
-a connection is ripped at most `max_rips` times (then it is never a blocker again), so the loop
-ends. A connection with no way even on the board without planned copper is *boxed in*; one
-that has a way there but only through copper that may not be ripped is *congested*; one that
-ran out of the budget is *budget*. The best state seen (most connections routed, then least
-wire) is the plan. Work is counted in route calls (`budget_routes`), never timed: the same
-board gives the same plan on any machine.
+A connection that finds no way is searched again, by the layered search, on the board without
+the other connections' planned copper that may still be ripped up, that copper being *soft*:
+a way may cross it at a price (`rip_price` nm of track per crossed connection, once more for
+each time that connection was ripped up before; `pcbdata.router.soft`). If no priced way is
+found, a way that ignores the soft copper is taken. The connections whose planned copper the
+way passes too close to are ripped up (exact distances), the connection takes its way and the
+ripped ones are queued again ahead of the rest; a connection is ripped at most `max_rips`
+times (then it is hard copper, never crossed again), so the loop ends. A connection with no
+way even on the board without planned copper is *boxed in*; one that has a way there but only
+through copper that may not be ripped is *congested*; one that ran out of the budget is
+*budget*. Later rounds put the connections left open first; the best state seen (most
+connections routed, then least wire) is the plan. Work is counted in route calls
+(`budget_routes`) and the searches' expansions and link checks, never timed: the same board
+gives the same plan on any machine.
 
-Every leg is a walkaround path and every via fits where it stands, so the planned copper
-keeps clearance by construction; KiCad judges it when it is laid (`pcbdata.agents.negotiated`
-lays it through the environment's free-coordinate actions). Nothing here imports KiCad.
+Every leg is a walkaround or layered path and every via fits where it stands, so the planned
+copper keeps clearance by construction; KiCad judges it when it is laid
+(`pcbdata.agents.negotiated` lays it through the environment's free-coordinate actions).
+Nothing here imports KiCad.
 """
 from __future__ import annotations
 
@@ -34,15 +36,25 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import shapely
 
-from pcbdata.router.clearance import HEADINGS, TOLERANCE
+from pcbdata.router.clearance import TOLERANCE
 from pcbdata.router.connections import Connection, End
-from pcbdata.router.geometry import BoardGeometry, CopperItem, Point, copper_core
+from pcbdata.router.geometry import (
+    BoardGeometry,
+    CopperItem,
+    Point,
+    copper_core,
+)
+from pcbdata.router.layered import VIA_COST, LayeredRequest
 from pcbdata.router.requests import RouteRequest
+from pcbdata.router.soft import SoftCopper
 from pcbdata.router.walkaround import WalkaroundRouter
 
 #: Route calls a plan may make (the budget), and rip-ups of one connection at most.
 BUDGET_ROUTES = 3000
 MAX_RIPS = 3
+#: What crossing a planned connection costs the rip-up search, in nm of track (once more for
+#: every time that connection was ripped up before).
+RIP_PRICE = 5_000_000
 #: Via spots tried per layer change (nearest the straight line first), and per end for the
 #: two-via way (each pair costs up to three route calls).
 VIA_TRIES = 6
@@ -56,6 +68,8 @@ GUIDE_TRIES = 6
 #: Rounds after the first, each with the connections left open placed first.
 RESTARTS = 2
 CAUSES = ("boxed_in", "congestion", "budget")
+#: Grid step (nm) of access points inside a pad whose centre a track cannot start at.
+ACCESS_STEP = 50_000
 
 
 @dataclass(frozen=True)
@@ -103,13 +117,15 @@ class Negotiator:
                  rules: dict[str, NetRule], connections: list[Connection],
                  budget_routes: int = BUDGET_ROUTES, max_rips: int = MAX_RIPS,
                  restarts: int = RESTARTS, router_nodes: int | None = None,
-                 router_checks: int | None = None):
+                 router_checks: int | None = None, via_cost: int = VIA_COST,
+                 rip_price: int = RIP_PRICE):
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
-        self.connections = list(connections)
         self.budget, self.max_rips, self.restarts = budget_routes, max_rips, restarts
+        self.via_cost, self.rip_price = via_cost, rip_price
         self.bare = WalkaroundRouter(board, **budgets)  # the board without planned copper
+        self.connections = [_accessible(self.bare, rules[c.net], c) for c in connections]
         self.router = self.bare.with_board(board)  # with all of it
         self.fixed_router = self.bare.with_board(board)  # with what may not be ripped up
         self.calls = 0
@@ -193,7 +209,9 @@ class Negotiator:
             return "budget"
         if self._route_here(index):
             return ""
-        wire = self._way(self._fixed(), index)
+        wire = self._way(self._fixed(), index, self._soft(index))
+        if wire is None:  # the way that crosses planned copper regardless of its price
+            wire = self._way(self._fixed(), index)
         if wire is None:
             return "budget" if self.calls >= self.budget else "congestion"
         blockers = self._blockers(index, wire)
@@ -255,23 +273,44 @@ class Negotiator:
 
     # --- ways ---
 
-    def _way(self, router: WalkaroundRouter, index: int) -> Wire | None:
+    def _soft(self, index: int) -> SoftCopper:
+        """The planned copper of other nets that may still be ripped up, each connection at
+        its price: `rip_price` nm of track, once more for every time it was ripped."""
+        net = self.connections[index].net
+        owners = [k for k in sorted(self.items) if self.rips[k] < self.max_rips
+                  and self.connections[k].net != net]
+        items = tuple(i for k in owners for i in self.items[k])
+        return SoftCopper(items, tuple(k for k in owners for _ in self.items[k]),
+                          {k: self.rip_price * (1 + self.rips[k]) for k in owners})
+
+    def _way(self, router: WalkaroundRouter, index: int,
+             soft: SoftCopper | None = None) -> Wire | None:
+        """A way for connection `index`: a walkaround path on a layer both ends are on, else
+        the layered search (every layer, vias as moves of the search,
+        `pcbdata.router.layered`); with `soft`, only the layered search, which may cross that
+        copper at its price."""
         c = self.connections[index]
         rule = self.rules[c.net]
-        for layer in [lay for lay in self.layers if lay in c.a.layers and lay in c.b.layers]:
-            path = self._leg(router, c.net, layer, c.a.at, c.b.at, rule)
-            if path:
-                return Wire(c.net, ((layer, path),))
-        for la in [lay for lay in self.layers if lay in c.a.layers]:
-            for lb in [lay for lay in self.layers if lay in c.b.layers and lay != la]:
-                wire = self._one_via(router, c, la, lb, rule)
-                if wire:
-                    return wire
-        for layer in [lay for lay in self.layers if lay in c.a.layers and lay in c.b.layers]:
-            wire = self._two_vias(router, c, layer, rule)
-            if wire:
-                return wire
-        return None
+        if soft is None:
+            for layer in [lay for lay in self.layers
+                          if lay in c.a.layers and lay in c.b.layers]:
+                path = self._leg(router, c.net, layer, c.a.at, c.b.at, rule)
+                if path:
+                    return Wire(c.net, ((layer, path),))
+            if len(self.layers) < 2:
+                return None
+        if self.calls >= self.budget:
+            return None
+        self.calls += 1
+        result = router.route_layers(LayeredRequest(
+            net=c.net, start=c.a.at, start_layers=c.a.layers, goal=c.b.at,
+            goal_layers=c.b.layers, width=rule.width, clearance=rule.clearance,
+            via_diameter=rule.via_diameter, layers=self.layers, reach=(c.a.reach, c.b.reach),
+            via_cost=self.via_cost), soft)
+        if result.legs is None:
+            return None
+        return Wire(c.net, result.legs, result.vias)
+
 
     def _leg(self, router, net, layer, a: Point, b: Point, rule: NetRule):
         if a == b:
@@ -283,133 +322,48 @@ class Negotiator:
                                            width=rule.width, clearance=rule.clearance))
         return None if result.path is None else tuple((int(x), int(y)) for x, y in result.path)
 
-    def _one_via(self, router, c: Connection, la: str, lb: str, rule: NetRule) -> Wire | None:
-        """a on `la`, a via, b on `lb`: vias at spots around the ends first, then along a guide
-        path (a to b's place on `la`, via near b; a's place to b on `lb`, via near a), whose
-        part up to (or from) the via is kept as one leg."""
-        for v in self._spots(router, c, rule)[:VIA_TRIES]:
-            first = self._leg(router, c.net, la, c.a.at, v, rule)
-            if first is None:
-                continue
-            second = self._leg(router, c.net, lb, v, c.b.at, rule)
-            if second is not None:
-                return Wire(c.net, ((la, first), (lb, second)), (v,))
-        guide = self._leg(router, c.net, la, c.a.at, c.b.at, rule)
-        for head, v in self._guide_spots(router, c.net, guide, rule, from_end=True):
-            second = self._leg(router, c.net, lb, v, c.b.at, rule)
-            if second is not None:
-                return Wire(c.net, ((la, head), (lb, second)), (v,))
-        guide = self._leg(router, c.net, lb, c.a.at, c.b.at, rule)
-        for tail, v in self._guide_spots(router, c.net, guide, rule, from_end=False):
-            first = self._leg(router, c.net, la, c.a.at, v, rule)
-            if first is not None:
-                return Wire(c.net, ((la, first), (lb, tail)), (v,))
+
+def _accessible(router: WalkaroundRouter, rule: NetRule, c: Connection) -> Connection:
+    """`c`, or where a track cannot start at an end's pad centre on any of its layers (a pad
+    whose centre lies off the board or too near other copper) and can at the other end, `c`
+    from the other end to an access point: the point of that pad's copper nearest its centre
+    where a track can end (the agent starts a wire at a pad centre, and may end it anywhere)."""
+    a_ok, b_ok = (_open_layers(router, rule, c.net, end) for end in (c.a, c.b))
+    if a_ok and b_ok or not (a_ok or b_ok):
+        return c
+    good, bad = (c.a, c.b) if a_ok else (c.b, c.a)
+    point = _access_point(router, rule, c.net, bad)
+    if point is None:
+        return c
+    return Connection(c.net, good, End(point[0], point[1], point[2], 0))
+
+
+def _open_layers(router, rule: NetRule, net: str, end: End) -> tuple[str, ...]:
+    return tuple(lay for lay in end.layers if not router._point_problem(
+        router._rules(net, lay, rule.width, rule.clearance), end.at))
+
+
+def _access_point(router, rule: NetRule, net: str, end: End):
+    """(x, y, layers) of the nearest point to `end` inside its pad's copper (a grid of
+    ACCESS_STEP) where a track of the net's width can end, or None."""
+    pads = [item for item in router.board.copper if item.kind == "pad" and item.net == net
+            and set(end.layers) & set(item.layers)
+            and shapely.contains_xy(copper_core(item)[0], *end.at)]
+    if not pads:
         return None
-
-    def _guide_spots(self, router, net: str, guide, rule: NetRule, from_end: bool) -> list:
-        """(part of `guide` up to the spot, or from it; the spot) for the via spots on the
-        guide (`_cuts`), nearest the guide's end first (`from_end`) or its start; at most
-        GUIDE_TRIES."""
-        cuts = self._cuts(router, net, guide, rule)
-        chosen = list(reversed(cuts)) if from_end else cuts
-        out = []
-        for _, k, point in chosen[:GUIDE_TRIES]:
-            part = guide[:k + 1] + (point,) if from_end else (point,) + guide[k + 1:]
-            out.append((part, point))
-        return out
-
-    def _cuts(self, router, net: str, guide, rule: NetRule) -> list:
-        """Points on a guide path every GUIDE_STEP (exact octilinear steps) where a via fits,
-        as (distance from the start, segment index, point), nearest the start first."""
-        if not guide or len(guide) < 2:
-            return []
-        cuts = []
-        run = 0.0
-        for k, (a, b) in enumerate(zip(guide, guide[1:])):
-            dx, dy = b[0] - a[0], b[1] - a[1]
-            steps = max(abs(dx), abs(dy))
-            if steps == 0:
-                continue
-            unit = (dx // steps if dx else 0, dy // steps if dy else 0)
-            length = math.hypot(dx, dy)
-            for n in range(GUIDE_STEP, steps, GUIDE_STEP):
-                cuts.append((run + length * n / steps, k, (a[0] + unit[0] * n,
-                                                           a[1] + unit[1] * n)))
-            run += length
-        if not cuts:
-            return []
-        fits = router.vias_fit(net, [p for _, _, p in cuts], rule.via_diameter, rule.clearance,
-                               self.layers)
-        return [cut for cut, ok in zip(cuts, fits) if ok]
-
-    def _guided_two_vias(self, router, c: Connection, layer: str, middle_layer: str,
-                         rule: NetRule) -> Wire | None:
-        """a and b on `layer`, the way between them on `middle_layer`: a guide path from a's
-        place to b's there, a via on it near each end, short legs on `layer` to the vias."""
-        guide = self._leg(router, c.net, middle_layer, c.a.at, c.b.at, rule)
-        cuts = self._cuts(router, c.net, guide, rule)
-        half = GUIDE_TRIES // 2
-        for d1, k1, p1 in cuts[:half]:
-            first = self._leg(router, c.net, layer, c.a.at, p1, rule)
-            if first is None:
-                continue
-            for d2, k2, p2 in list(reversed(cuts))[:half]:
-                if d2 <= d1:
-                    continue
-                last = self._leg(router, c.net, layer, p2, c.b.at, rule)
-                if last is not None:
-                    middle = (p1, *guide[k1 + 1:k2 + 1], p2)
-                    return Wire(c.net, ((layer, first), (middle_layer, middle),
-                                        (layer, last)), (p1, p2))
-        return None
-
-    def _two_vias(self, router, c: Connection, layer: str, rule: NetRule) -> Wire | None:
-        others = [lay for lay in self.layers if lay != layer]
-        if not others:
-            return None
-        for middle_layer in others:
-            wire = self._guided_two_vias(router, c, layer, middle_layer, rule)
-            if wire:
-                return wire
-        near_a = self._spots(router, c, rule, c.a)[:VIA_PAIR_TRIES]
-        near_b = self._spots(router, c, rule, c.b)[:VIA_PAIR_TRIES]
-        for va in near_a:
-            first = self._leg(router, c.net, layer, c.a.at, va, rule)
-            if first is None:
-                continue
-            for vb in near_b:
-                if vb == va:
-                    continue
-                for middle_layer in others:
-                    middle = self._leg(router, c.net, middle_layer, va, vb, rule)
-                    if middle is None:
-                        continue
-                    last = self._leg(router, c.net, layer, vb, c.b.at, rule)
-                    if last is not None:
-                        return Wire(c.net, ((layer, first), (middle_layer, middle),
-                                            (layer, last)), (va, vb))
-        return None
-
-    def _spots(self, router, c: Connection, rule: NetRule, near: End | None = None) -> list:
-        """Via spots that fit: rings around the ends (or `near` only) and points along the
-        straight line, nearest the line's midpoint first (`near`: nearest that end)."""
-        ends = [near] if near else [c.a, c.b]
-        spots: set[Point] = set()
-        for end in ends:
-            unit = end.reach + rule.via_diameter / 2 + rule.clearance
-            for step in RING_STEPS:
-                ring = np.rint(np.array(end.at) + HEADINGS * unit * step).astype(np.int64)
-                spots |= {(int(x), int(y)) for x, y in ring}
-        if near is None:
-            a, b = np.array(c.a.at, dtype=float), np.array(c.b.at, dtype=float)
-            spots |= {(int(round(x)), int(round(y))) for x, y in
-                      (a + t * (b - a) for t in (0.25, 0.5, 0.75))}
-        ordered = sorted(spots)
-        fits = router.vias_fit(c.net, ordered, rule.via_diameter, rule.clearance, self.layers)
-        target = near.at if near else ((c.a.x + c.b.x) / 2, (c.a.y + c.b.y) / 2)
-        chosen = [p for p, ok in zip(ordered, fits) if ok]
-        return sorted(chosen, key=lambda p: ((p[0] - target[0]) ** 2 + (p[1] - target[1]) ** 2,
-                                             p))
+    shape = copper_core(pads[0])[0]
+    span = np.arange(-end.reach, end.reach + 1, ACCESS_STEP)
+    grid = np.array([(end.x + dx, end.y + dy) for dx in span for dy in span], dtype=np.int64)
+    grid = grid[shapely.contains_xy(shape, grid[:, 0], grid[:, 1])]
+    grid = grid[np.lexsort((grid[:, 1], grid[:, 0], np.hypot(*(grid - end.at).T)))]
+    dots = np.repeat(grid[:, None, :].astype(float), 2, axis=1)
+    inside = router._inside(grid.astype(float))
+    fits = {lay: inside & ~router._rules(net, lay, rule.width, rule.clearance).failing(dots)
+            for lay in end.layers}
+    for k in np.flatnonzero(np.any(list(fits.values()), axis=0)):
+        return int(grid[k, 0]), int(grid[k, 1]), tuple(lay for lay in end.layers
+                                                       if fits[lay][k])
+    return None
 
 
 def _rank(plan: Plan) -> tuple:

@@ -63,8 +63,10 @@ from pcbdata.router.geometry import (
     item_sort_key,
     one_bend_paths,
 )
+from pcbdata.router.layered import LayeredRequest, LayeredResult, route_layers
 from pcbdata.router.requests import RouteRequest, RouteResult
 from pcbdata.router.search import _mm, _Search
+from pcbdata.router.soft import SoftCopper
 
 # The search budget (see WalkaroundRouter): expansions and link checks.
 BUDGET_NODES = 20_000
@@ -199,6 +201,24 @@ class WalkaroundRouter:
             kept = replace(result, stats=dict(result.stats))
             self._shared.remember(self._shared.routes, key, kept)
         result.stats["seconds"] = time.perf_counter() - clock
+        return result
+
+    def route_layers(self, request: LayeredRequest, soft: SoftCopper | None = None
+                     ) -> LayeredResult:
+        """A way over several layers with vias as moves of the search
+        (`pcbdata.router.layered`), remembered like `route`'s answers under the state of every
+        layer it may use; with `soft`, copper it may cross at a price (`pcbdata.router.soft`;
+        not remembered)."""
+        if soft is not None:
+            return route_layers(self, request, soft)
+        key = (tuple(self._layer_key(lay) for lay in request.layers), request,
+               self.budget_nodes, self.budget_checks)
+        known = self._shared.routes.get(key)
+        if known is not None:
+            self._shared.routes.move_to_end(key)
+            return known
+        result = route_layers(self, request)
+        self._shared.remember(self._shared.routes, key, result)
         return result
 
     def _route(self, req: RouteRequest, clock: float) -> RouteResult:
@@ -351,10 +371,12 @@ class _Memory:
         self.layers: OrderedDict = OrderedDict()
         self.rules: OrderedDict = OrderedDict()
         self.routes: OrderedDict = OrderedDict()
+        self.vias: OrderedDict = OrderedDict()  # via candidates (`layered.via_candidates`)
 
     def remember(self, table: OrderedDict, key, value) -> None:
         table[key] = value
-        limit = {id(self.layers): self.LAYERS, id(self.rules): self.RULES}.get(
+        limit = {id(self.layers): self.LAYERS, id(self.rules): self.RULES,
+                 id(self.vias): self.RULES}.get(
             id(table), self.ROUTES
         )
         while len(table) > limit:

@@ -2,19 +2,20 @@
 copper judged by KiCad: complete and clean where rip-ups are needed, and deterministic."""
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from tests.helpers import skip_without_snapshot
 
-#: A D3-B pick whose plan needs rip-ups (two connections ripped and placed again).
-RIPPED = "ATtiny461Breakout_ATTiny461DevBoard"
+#: A D3-B pick whose plan needs rip-ups: without them five connections stay open.
+RIPPED = "kicad-workshop_fancyboard"
 SMALL = "maytal_Maytal"
 
 
-def _board_id(d3_set, name: str) -> str:
-    found = [p.name for p in (d3_set / "d3-b" / "test").iterdir() if p.name[5:] == name]
+def _board_id(d3_set, name: str, config: str = "d3-b") -> str:
+    found = [p.name for p in (d3_set / config / "test").iterdir() if p.name[5:] == name]
     if not found:
-        skip_without_snapshot(f"{d3_set}: no D3-B test board {name}")
+        skip_without_snapshot(f"{d3_set}: no {config} test board {name}")
     return found[0]
 
 
@@ -34,17 +35,69 @@ def _episode(d3_set, board_id: str, tmp_path, name: str):
         env.close()
 
 
-def _open_without_rip_ups(d3_set, board_id: str) -> int:
+def _view(d3_set, board_id: str, config: str = "d3-b"):
     import pcbdata.env
-    from pcbdata.agents.negotiated import plan_board
 
-    env = pcbdata.env.make(d3_set, "d3-b", split="test", drc="terminal")
+    env = pcbdata.env.make(d3_set, config, split="test", drc="terminal")
     try:
         env.reset(seed=0, options={"board_id": board_id})
-        plan, _ = plan_board(env.unwrapped.board_view(), max_rips=0, restarts=0)
-        return len(plan.open)
+        return env.unwrapped.board_view()
     finally:
         env.close()
+
+
+def _open_without_rip_ups(d3_set, board_id: str) -> int:
+    from pcbdata.agents.negotiated import plan_board
+
+    plan, _ = plan_board(_view(d3_set, board_id), max_rips=0, restarts=0)
+    return len(plan.open)
+
+
+def _assert_legal(view, plan, connections) -> None:
+    """Every planned track and via keeps its clearance to every other net's copper, the
+    board's and the plan's (exact shapes, independently of the router), and ends where its
+    connection does."""
+    import shapely
+
+    from pcbdata.router.geometry import copper_core
+    from pcbdata.router.negotiate import NetRule
+
+    static = view.static
+    rules = {n.name: NetRule(n.track_width, n.clearance, n.via_diameter, n.via_drill)
+             for n in static.nets}
+    planned = [item for w in plan.wires.values()
+               for item in w.items(rules[w.net], tuple(static.layers))]
+    everything = list(view.geometry.copper) + planned
+    shapes = [copper_core(item) for item in everything]
+    tree = shapely.STRtree([core for core, _ in shapes])
+    for k, item in enumerate(planned, start=len(view.geometry.copper)):
+        core, radius = shapes[k]
+        for j in tree.query(core, predicate="dwithin", distance=radius + 2_000_000):
+            other = everything[j]
+            if other.net == item.net or not set(other.layers) & set(item.layers):
+                continue
+            gap = shapely.distance(core, shapes[j][0]) - radius - shapes[j][1]
+            assert gap >= max(item.clearance, other.clearance) - 1e-3, (item, other, gap)
+    for index, wire in plan.wires.items():
+        c = connections[index]
+        assert wire.legs[0][1][0] == c.a.at and wire.legs[-1][1][-1] == c.b.at
+
+
+def test_negotiated_search_frees_what_a_plain_plan_leaves_open(d3_set):
+    """On a real board the rip-up search (crossing planned copper at a price, the crossed
+    connections ripped and placed again) completes a plan that leaves five connections open
+    without it; the plan is legal, uses vias inside its searches, and is the same twice."""
+    from pcbdata.agents.negotiated import plan_board
+
+    view = _view(d3_set, _board_id(d3_set, RIPPED))
+    plain, _ = plan_board(view, max_rips=0, restarts=0)
+    assert len(plain.open) >= 1
+    plan, connections = plan_board(view)
+    assert plan.open == {} and plan.stats["rips"] >= 1
+    assert any(w.vias for w in plan.wires.values())
+    _assert_legal(view, plan, connections)
+    again, _ = plan_board(_view(d3_set, _board_id(d3_set, RIPPED)))
+    assert again.wires == plan.wires and again.stats == plan.stats
 
 
 @pytest.mark.slow
@@ -93,3 +146,37 @@ def test_route_negotiated_on_d2_boards_then_eval(board_set, tmp_path, capsys):
     assert summary["cp"] == 1.0 and summary["n_boards"] == 4
     assert main(["route", str(board_set), "--config", "d2", "--router", "negotiated",
                  "--router-cmd", "x {dsn} {ses}", "--out", str(tmp_path / "r2")]) == 2
+
+
+def test_a_pad_whose_centre_is_off_the_board_is_reached_at_an_access_point(d3_set):
+    """A D3-C pick's connector pads hang over the board edge: no track can start at their
+    centres, so their connections run from the other end to the nearest point of the pad's
+    copper where a track may end, and the layered search finds that way on the bare board."""
+    from pcbdata.agents.negotiated import plan_board
+    from pcbdata.router.negotiate import NetRule, _accessible
+    from pcbdata.router.walkaround import WalkaroundRouter
+
+    board_id = _board_id(d3_set, "RGBMatrixPanelCPLD-PhotonBackpack_RGBMatrixPanel_CPLD", "d3-c")
+    view = _view(d3_set, board_id, "d3-c")
+    _, connections = plan_board(view, budget_routes=0)  # the connections only
+    rules = {n.name: NetRule(n.track_width, n.clearance, n.via_diameter, n.via_drill)
+             for n in view.static.nets}
+    router = WalkaroundRouter(view.geometry)
+    moved = [c for c in connections if c.net == "VIN" and c.b.reach == 0]
+    assert moved, "no VIN connection to an access point"
+    c = moved[0]
+    centre = [p for p in view.static.pads if p.net == "VIN" and abs(p.x - c.b.x) <= 2_000_000
+              and abs(p.y - c.b.y) <= 2_000_000 and (p.x, p.y) != (c.b.x, c.b.y)]
+    assert centre and not router._inside(np.array([[centre[0].x, centre[0].y]], float))[0]
+    assert router._inside(np.array([c.b.at], float))[0]
+    assert _accessible(router, rules[c.net], c) == c  # an access point stays as it is
+    way = router.route_layers(_layered(c, rules[c.net], view.static.layers))
+    assert way.legs is not None and way.legs[-1][1][-1] == c.b.at
+
+
+def _layered(c, rule, layers):
+    from pcbdata.router.layered import LayeredRequest
+
+    return LayeredRequest(c.net, c.a.at, c.a.layers, c.b.at, c.b.layers, rule.width,
+                          rule.clearance, rule.via_diameter, tuple(layers),
+                          (c.a.reach, c.b.reach))

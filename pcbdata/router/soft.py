@@ -1,0 +1,69 @@
+"""Copper a search may cross at a price (negotiated routing, PathFinder style): the planned
+copper of other connections, each connection with its price (`SoftCopper`). The layered
+search (`pcbdata.router.layered`) adds to a link's length the prices of the connections whose
+copper it comes too close to (exact distances, each connection once per segment), and to a
+via's cost those its via comes too close to; the planner then rips those connections up.
+The search's first window that holds a way gives the answer: a cheaper way farther out is not
+looked for."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import shapely
+
+from pcbdata.router.clearance import _Layer, _lines, _prepare, _Rules
+from pcbdata.router.geometry import CopperItem, copper_core
+
+
+@dataclass(frozen=True)
+class SoftCopper:
+    """Items another search may cross, the owner (a connection) of each and its price (nm of
+    track)."""
+
+    items: tuple[CopperItem, ...]
+    owners: tuple[int, ...]
+    prices: dict[int, float]
+
+
+class SoftLayer:
+    """One layer's soft copper as rules for one width: the prices segments and dots pay."""
+
+    def __init__(self, router, soft: SoftCopper, net: str, layer: str, width: int,
+                 clearance: int):
+        chosen = [i for i, item in enumerate(soft.items)
+                  if layer in item.layers and item.net != net]
+        records = []
+        for i in chosen:
+            item = soft.items[i]
+            prepared = router._cache.get(item) or _prepare(*copper_core(item))
+            records.append((item.kind, item.net, item.clearance, prepared))
+        self.empty = not records
+        if self.empty:
+            return
+        self.rules = _Rules(_Layer(records), -2, width / 2, clearance,
+                            router.board.edge_clearance)
+        self.owner = np.array([soft.owners[i] for i in chosen], dtype=np.int64)
+        self.price = {o: float(p) for o, p in soft.prices.items()}
+
+    def owners(self, segments: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(segment, owner) pairs, each once: the segment comes too close to the owner's
+        copper."""
+        if self.empty or not len(segments):
+            return np.empty(0, np.int64), np.empty(0, np.int64)
+        rules = self.rules
+        seg, item = rules._near_pairs(segments)
+        if len(seg):
+            close = shapely.distance(_lines(segments[seg]), rules.layer.cores[item])
+            keep = close < rules.need[item]
+            seg, item = seg[keep], item[keep]
+        pairs = np.unique(np.stack([seg, self.owner[item]], axis=1), axis=0).reshape(-1, 2)
+        return pairs[:, 0], pairs[:, 1]
+
+    def prices(self, segments: np.ndarray) -> np.ndarray:
+        """Per segment, the summed prices of the owners it comes too close to."""
+        out = np.zeros(len(segments))
+        seg, owner = self.owners(segments)
+        if len(seg):
+            np.add.at(out, seg, [self.price[int(o)] for o in owner])
+        return out
