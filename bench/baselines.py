@@ -92,6 +92,7 @@ def measure(args, work: Path) -> dict:
     started, load_before = datetime.now(UTC).isoformat(timespec="minutes"), _load()
     common = [str(args.set), "--config", args.config, "--split", "test"]
     limit = ["--limit", str(args.limit)] if args.limit else []
+    timeout = ["--rollout-timeout", str(args.rollout_timeout)] if args.rollout_timeout else []
     commands = []
     k = 1 if args.method == "reference" else args.rollouts
     if args.method == "reference":
@@ -105,7 +106,7 @@ def measure(args, work: Path) -> dict:
         else:
             commands.append(pcbdata("rollout", *common, "--agent", args.method, "--rollouts",
                                     str(k), "--drc", args.drc, "--out", str(runs), "--workers",
-                                    str(args.workers), *limit))
+                                    str(args.workers), *limit, *timeout))
         commands.append(pcbdata("eval", *common, "--runs", str(runs), "--k", str(k), "--out",
                                 str(report), "--workers", str(args.eval_workers),
                                 "--name", args.method, *limit))
@@ -300,6 +301,8 @@ def main() -> int:
         p.add_argument("--method", required=True, choices=sorted(METHODS) + ["d1"])
         p.add_argument("--rollouts", type=int, default=5)
         p.add_argument("--limit", type=int, default=None, help="only the first N test boards")
+        p.add_argument("--rollout-timeout", type=float, default=None, metavar="SECONDS",
+                       help="an agent's episode longer than this ends without a board")
         p.add_argument("--drc", default="terminal", choices=("terminal", "step"))
         p.add_argument("--workers", type=int, default=2)
         p.add_argument("--eval-workers", type=int, default=8)
