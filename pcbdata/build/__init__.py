@@ -174,11 +174,13 @@ def build_d1(out: str | Path, grids: list[int] | None = None, placement: str | N
 
 def build_level(out: str | Path, family: str, level: str | None = None,
                 overrides: dict | None = None,
-                options: SyntheticOptions | None = None) -> BuildSummary:
+                options: SyntheticOptions | None = None,
+                version: str | None = None) -> BuildSummary:
     """One level of a family with levels (`build_level(out, "d2", "hard")`, `build_level(out,
     "d2r", "b")`; default: the family's default level), with parameters overridden (`--set`)
-    if any."""
-    return build_configs(out, [level_config(family, level, overrides)], options)
+    if any; `version`: an earlier version of the level, kept in the package (default: the
+    current one)."""
+    return build_configs(out, [level_config(family, level, overrides, version)], options)
 
 
 def build_d3(source: str | Path, out: str | Path, recipe: str | Path | None = None,

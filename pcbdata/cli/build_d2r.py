@@ -15,6 +15,11 @@ def register(parser) -> None:
                         help="level from pcbdata/resources/presets/d2r_levels.toml: a, b or c "
                              "(the D3 tier it is calibrated to; default: b); `pcbdata levels` "
                              "lists them")
+    parser.add_argument("--level-version", default=None, metavar="VERSION",
+                        help="an earlier version of the level, kept in the package (e.g. "
+                             "4.0.0 of level b): its boards byte for byte, which `pcbdata "
+                             "verify --release` compares with that version's pinned release "
+                             "(default: the current version)")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                         dest="overrides",
                         help="override one parameter (repeatable), TOML values: "
@@ -53,7 +58,8 @@ def run(args) -> int:
     overrides = parse_overrides(args.overrides)
     options = common.options(args)
     options.reference = reference_plan(args)
-    summary = build_level(args.out, "d2r", args.level, overrides, options)
+    summary = build_level(args.out, "d2r", args.level, overrides, options,
+                          version=args.level_version)
     print(f"done: {summary.line()}")
     return 0
 

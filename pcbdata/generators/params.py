@@ -31,6 +31,11 @@ class GeneratorParams:
     (`LABEL`) and checks one value against its annotation (`coerce`)."""
 
     LABEL = ""
+    #: Parameters added after sets were released, which draw nothing at their default: the
+    #: manifest records them only when set, so the earlier levels' records (and the pinned
+    #: releases of them) stay as they were. A left-out one is at its default, so the record
+    #: still gives the boards.
+    RECORDED_WHEN_SET: tuple[str, ...] = ()
 
     @staticmethod
     def coerce(key: str, value: Any, annotation: str, where: str) -> Any:
@@ -55,5 +60,9 @@ class GeneratorParams:
         return cls(**kwargs)
 
     def as_dict(self) -> dict:
+        """The full parameter set, but `RECORDED_WHEN_SET` parameters at their default."""
         data = asdict(self)  # type: ignore[call-overload]
-        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in data.items()}
+        defaults = {f.name: f.default for f in fields(self)  # type: ignore[arg-type]
+                    if f.name in self.RECORDED_WHEN_SET}
+        return {k: (list(v) if isinstance(v, tuple) else v) for k, v in data.items()
+                if not (k in defaults and v == defaults[k])}

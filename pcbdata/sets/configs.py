@@ -114,16 +114,17 @@ def d1_config(grid: int, placement: str | None = None) -> ConfigSpec:
 
 
 def level_config(family_name: str, level: str | None = None,
-                 overrides: dict | None = None) -> ConfigSpec:
+                 overrides: dict | None = None, version: str | None = None) -> ConfigSpec:
     """The config of a level of a family with levels (`level_config("d2", "hard")`; default:
-    the family's default level), with parameters overridden (`--set`) if any."""
+    the family's default level), with parameters overridden (`--set`) if any; `version`: an
+    earlier version of the level (`sets.presets.level`; default: the current one)."""
     from pcbdata.sets.presets import level as preset_level
 
     record = family(family_name)
     name = level or record.default_level
     if name is None:
         raise UserError(f"family {family_name!r}: name a level")
-    lv = preset_level(family_name, name, overrides)
+    lv = preset_level(family_name, name, overrides, version)
     parameters = lv.params.as_dict()
     return ConfigSpec(name=level_name(family_name, lv.name, parameters if lv.overrides else None),
                       family=family_name, version=lv.version, splits=SYNTHETIC_SPLITS,

@@ -122,3 +122,37 @@ LEVEL_A_3_0_0_BOARDS = {
 
 def test_with_the_top_up_by_pin_count_off_boards_are_byte_identical_to_before():
     assert_train_boards_unchanged(LEVEL_A_3_0_0, LEVEL_A_3_0_0_BOARDS)
+
+
+def _passive_pitches(board) -> dict[str, set[float]]:
+    """Per passive size (its footprint name), the pad centre distances (mm) on a board."""
+    out: dict[str, set[float]] = {}
+    for part in board.parts:
+        if part.name.startswith("RC_"):
+            size = part.name.split("_")[1]
+            a, b = part.pads
+            out.setdefault(size, set()).add(round(abs(a.dx - b.dx) / 1e6, 6))
+    return out
+
+
+def test_land_patterns_vary_by_board_one_distance_per_size_within_its_range():
+    """With `land_pattern_spread` 1 every board draws one pad centre distance per passive
+    size, in the size's range, to 0.01 mm; at 0 every passive is nominal."""
+    varied = level_config("d2r", "b", {"land_pattern_spread": 1.0}).generator()
+    nominal = level_config("d2r", "b", {"land_pattern_spread": 0.0}).generator()
+    seen: set[float] = set()
+    for i in range(20):
+        for size, distances in _passive_pitches(varied.generate(0, "test", i).board).items():
+            assert len(distances) == 1
+            (distance,) = distances
+            low, high = fp.PASSIVE_PITCH_RANGES_MM[size]
+            assert low <= distance <= high and round(distance, 2) == distance
+            seen.add(distance)
+        for size, distances in _passive_pitches(nominal.generate(0, "test", i).board).items():
+            assert distances == {fp.PASSIVES[size][2]}
+    assert len(seen) > 10
+
+
+def test_the_smallest_land_pattern_keeps_its_pads_apart():
+    for size, (low, _high) in fp.PASSIVE_PITCH_RANGES_MM.items():
+        assert fp.min_gap(fp.passive(size, low)) >= 300_000  # 0.3 mm: above every clearance

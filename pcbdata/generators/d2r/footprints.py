@@ -17,6 +17,12 @@ COURTYARD_MARGIN_MM = 0.25
 # pitches real boards' passives show most (docs/realism.md).
 PASSIVES = {"0402": (0.54, 0.64, 0.97), "0603": (0.8, 0.95, 1.5),
             "0805": (1.0, 1.45, 1.9), "1206": (1.15, 1.8, 3.0)}
+# The pad centre distances other published land patterns of each size give (IPC-7351's
+# least and most density levels, hand-soldering variants, vendor and EDA-tool libraries): a
+# board drawing its passives' land patterns from another library (`land_pattern_spread`) gets
+# one distance per size, uniform in this range (mm).
+PASSIVE_PITCH_RANGES_MM = {"0402": (0.9, 1.3), "0603": (1.4, 1.9), "0805": (1.9, 2.5),
+                           "1206": (2.7, 3.6)}
 # Fine-pitch packages: pitch -> pad width across the pitch (what keeps the gap between pins).
 QFN_PAD_WIDTH = {0.4: 0.2, 0.5: 0.25, 0.65: 0.35}
 QFP_PAD_WIDTH = {0.4: 0.2, 0.5: 0.28, 0.65: 0.38, 0.8: 0.5}
@@ -59,10 +65,14 @@ def _template(name: str, kind: str, pads: list[PartPad]) -> Template:
                     (-(-half_w // step) * step, -(-half_h // step) * step))
 
 
-def passive(size: str) -> Template:
-    w, h, pitch = PASSIVES[size]
+def passive(size: str, pitch_mm: float | None = None) -> Template:
+    """A two-pad SMD passive of `size`, its pads `pitch_mm` apart (default: the size's
+    nominal distance, `PASSIVES`)."""
+    w, h, nominal = PASSIVES[size]
+    pitch = nominal if pitch_mm is None else pitch_mm
     pads = [_pad(1, -pitch / 2, 0, "roundrect", w, h), _pad(2, pitch / 2, 0, "roundrect", w, h)]
-    return _template(f"RC_{size}", "passive", pads)
+    name = f"RC_{size}" if pitch_mm is None else f"RC_{size}_P{pitch_mm:g}"
+    return _template(name, "passive", pads)
 
 
 def axial(pitch: float) -> Template:

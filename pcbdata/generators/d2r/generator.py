@@ -89,7 +89,8 @@ class D2RGenerator:
         layers = 4 if stream.random() < p.four_layer_fraction else 2
         count = self._component_count(stream)
         mix, smd_lean = self._board_mix(stream)
-        style = Style(mix, self._board_passives(stream), smd_lean)
+        style = Style(mix, self._board_passives(stream), smd_lean,
+                      self._board_land_patterns(stream))
         templates = [self.parts.from_mix(stream, style) for _ in range(count)]
         pad_target = self._pad_target(stream, count)
         self._top_up(stream, style, templates, pad_target)
@@ -154,6 +155,18 @@ class D2RGenerator:
         keep = p.passive_size_consistency
         return {k: (1 - keep) * w + (keep if k == main else 0.0)
                 for k, w in p.passive_sizes.items()}
+
+    def _board_land_patterns(self, stream: Stream) -> dict[str, float] | None:
+        """The pad centre distances of this board's passives: real boards take their land
+        patterns from one of many libraries, so a share `land_pattern_spread` of the boards
+        gets one distance per size drawn from the size's published range
+        (`fp.PASSIVE_PITCH_RANGES_MM`, to 0.01 mm); the others keep the nominal ones (no draw
+        at 0: boards unchanged)."""
+        share = self.params.land_pattern_spread
+        if not share or stream.random() >= share:
+            return None
+        return {size: round(stream.uniform(*fp.PASSIVE_PITCH_RANGES_MM[size]), 2)
+                for size in sorted(fp.PASSIVES)}
 
     def _top_up(self, stream: Stream, style: Style, templates: list[fp.Template],
                 target: int) -> None:

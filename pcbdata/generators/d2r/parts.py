@@ -36,6 +36,9 @@ class Style:
     part_mix: dict[str, float]
     passive_sizes: dict[str, float]
     smd_lean: float = 0.5
+    #: Pad centre distance (mm) of this board's passives per size, where the board's library
+    #: is not the nominal one (`land_pattern_spread`); sizes not listed are nominal.
+    passive_pitches: dict[str, float] | None = None
 
 
 def weighted(stream: Stream, table: dict[str, float]) -> str:
@@ -99,7 +102,8 @@ class PartDrawer:
     def _of_kind(self, stream: Stream, style: Style, kind: str) -> fp.Template:
         p = self.p
         if kind == "passive":
-            return fp.passive(weighted(stream, style.passive_sizes))
+            size = weighted(stream, style.passive_sizes)
+            return fp.passive(size, (style.passive_pitches or {}).get(size))
         if kind == "axial":
             return fp.axial(stream.choice(fp.AXIAL_PITCHES))
         if kind == "radial":

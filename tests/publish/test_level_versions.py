@@ -1,0 +1,59 @@
+"""Earlier versions of a level stay buildable byte for byte: the levels file as it was is kept
+as `presets/<stem>@<version>.toml`, `pcbdata build d2r --level-version` reads it, and
+`pcbdata verify --release` compares the result with that version's pinned release
+(`releases/<config>@<version>.json.gz`)."""
+from __future__ import annotations
+
+import pytest
+
+from pcbdata.cli import main
+from pcbdata.core.errors import UserError
+from pcbdata.generators.d2r import D2RParams
+from pcbdata.model.manifest import read_manifest
+from pcbdata.resources import resource_path
+from pcbdata.sets.presets import level, level_versions
+from pcbdata.sets.releases import compare, pinned_release, read_release, released_configs
+
+SMALL = ["validation", "test"]
+
+
+def test_the_levels_know_their_versions():
+    assert level_versions("d2r", "b") == ["5.0.0", "4.0.0"]
+    assert level_versions("d2r", "a") == level_versions("d2r", "c") == ["4.0.0"]
+    assert level("d2r", "b").version == "5.0.0"
+    old = level("d2r", "b", version="4.0.0")
+    assert old.version == "4.0.0" and old.params == D2RParams()  # 4.0.0: the defaults
+    assert level("d2r", "a", version="4.0.0") == level("d2r", "a")
+    with pytest.raises(UserError, match=r"no version '3.0.0' .*versions: 5.0.0, 4.0.0"):
+        level("d2r", "b", version="3.0.0")
+
+
+def test_a_parameter_added_later_is_recorded_only_when_set():
+    assert "land_pattern_spread" not in D2RParams().as_dict()
+    assert D2RParams(land_pattern_spread=0.5).as_dict()["land_pattern_spread"] == 0.5
+    assert level("d2r", "b").params.as_dict()["land_pattern_spread"] == 0.8
+
+
+def test_earlier_releases_are_kept_beside_the_current_ones():
+    old, new = pinned_release("d2r-b", "4.0.0"), pinned_release("d2r-b", "5.0.0")
+    assert old is not None and old.source.endswith("d2r-b@4.0.0.json.gz")
+    assert new is not None and new.version == "5.0.0"
+    assert "d2r-b@4.0.0" not in released_configs()
+    for config in ("d2r-a", "d2r-c"):
+        assert pinned_release(config, "4.0.0").source.endswith(f"{config}.json.gz")
+
+
+@pytest.mark.parametrize("name", ["b"])
+def test_an_earlier_level_version_rebuilds_its_pinned_release(tmp_path, capsys, name):
+    """Level b 4.0.0, rebuilt today (its validation and test splits), is the boards of its
+    pinned release, byte for byte, and `verify --release` takes them."""
+    root = tmp_path / "set"
+    assert main(["build", "d2r", "--level", name, "--level-version", "4.0.0", "--splits",
+                 ",".join(SMALL), "--no-check", "--workers", "2", "--out", str(root)]) == 0
+    config = f"d2r-{name}"
+    path = resource_path("releases", f"{config}@4.0.0.json.gz")
+    assert compare(read_release(path), read_manifest(root), config, SMALL) == []
+    capsys.readouterr()
+    assert main(["verify", str(root), "--release"]) == 0
+    out = capsys.readouterr().out
+    assert f"release {config} 4.0.0 ({path}): matches" in out
