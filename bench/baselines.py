@@ -251,11 +251,11 @@ def levels_table() -> str:
     records = [json.loads(p.read_text()) for p in sorted(RECORDS.glob("*.json"))]
     records = sorted((r for r in records if _is_level(r)),
                      key=lambda r: (rank(r["config"]), r["config"], r["method"]))
-    lines = ["| config | method | boards | CP % / Pot. / Rout. / mean (median) s | DRV |",
-             "| --- | --- | --- | --- | --- |"]
+    lines = ["| config | set version | method | boards | CP % / Pot. / Rout. / mean (median) s "
+             "| DRV |", "| --- | --- | --- | --- | --- | --- |"]
     for r in records:
-        lines.append(f"| `{r['config']}` | `{r['method']}` @{r['k']} | {r['n_boards']} | "
-                     f"{_cell(r)} | {r['figures']['drv']:.2f} |")
+        lines.append(f"| `{r['config']}` | {r['set']['set_version']} | `{r['method']}` "
+                     f"@{r['k']} | {r['n_boards']} | {_cell(r)} | {r['figures']['drv']:.2f} |")
     return "\n".join(lines) + "\n"
 
 
