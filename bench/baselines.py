@@ -48,10 +48,13 @@ METHODS = {"reference": "Reference (the real routing)", "scripted": "`scripted`"
            "policy": "learned `policy` (trained on D2 only)", "random": "`random`"}
 
 
-def pcbdata(*args: str) -> str:
-    """Runs `python -m pcbdata ARGS` from this checkout; returns the command line."""
+def pcbdata(*args: str, allowed: tuple[int, ...] = (0,)) -> str:
+    """Runs `python -m pcbdata ARGS` from this checkout; returns the command line. An exit
+    code outside `allowed` is an error."""
     env = dict(os.environ, PYTHONPATH=str(REPO))
-    subprocess.run([sys.executable, "-m", "pcbdata", *args], env=env, check=True)
+    code = subprocess.run([sys.executable, "-m", "pcbdata", *args], env=env).returncode
+    if code not in allowed:
+        raise SystemExit(f"pcbdata {' '.join(args)}: exit {code}")
     return "pcbdata " + " ".join(args)
 
 
@@ -104,9 +107,11 @@ def measure(args, work: Path) -> dict:
                                     str(k), "--out", str(runs), "--workers", str(args.workers),
                                     *limit))
         else:
+            # exit 3: rollouts past --rollout-timeout have no board; eval scores them CP 0
             commands.append(pcbdata("rollout", *common, "--agent", args.method, "--rollouts",
                                     str(k), "--drc", args.drc, "--out", str(runs), "--workers",
-                                    str(args.workers), *limit, *timeout))
+                                    str(args.workers), *limit, *timeout,
+                                    allowed=(0, 3) if timeout else (0,)))
         commands.append(pcbdata("eval", *common, "--runs", str(runs), "--k", str(k), "--out",
                                 str(report), "--workers", str(args.eval_workers),
                                 "--name", args.method, *limit))
