@@ -155,7 +155,7 @@ def level(family: str, name: str, overrides: dict | None = None,
     levels file that holds it (default: the current one)."""
     record = family_record(family)
     _require_level(_levels_data(record)["levels"], name,
-                   record.title.split(":")[0] if ":" in record.title else family)
+                   getattr(record.params, "LABEL", "") or family)
     data, source = _levels_data_of(record, name, version)
     entry = data["levels"][name]
     spec = {k: v for k, v in entry.items() if k not in record.level_meta}
