@@ -3,6 +3,7 @@ the instance's static board as the KiCad session reports it (integer nanometres)
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 #: Action types, in the order of the action's `type` index (SPEC section 6).
 ACTION_TYPES = ("idle", "net_select", "net_end", "start_route", "make_line", "make_via", "finish")
@@ -83,10 +84,25 @@ class StaticBoard:
     grid_origin: int | None  # D1: lattice offset (nm), pad centres at origin + k * pitch
 
     def net_index(self, name: str) -> int:
-        return next(i for i, net in enumerate(self.nets) if net.name == name)
+        try:
+            return self._indices[0][name]
+        except KeyError:
+            raise KeyError(f"board {self.board_id}: no net {name!r}") from None
 
     def pads_of(self, net: str) -> list[int]:
-        return [i for i, pad in enumerate(self.pads) if pad.net == net]
+        return list(self._indices[1].get(net, ()))
+
+    @cached_property
+    def _indices(self) -> tuple[dict[str, int], dict[str, tuple[int, ...]]]:
+        """Net name -> action index (the first net of that name), and net name -> its pads'
+        indices; built once per board (observations ask for them at every step)."""
+        nets: dict[str, int] = {}
+        for i, net in enumerate(self.nets):
+            nets.setdefault(net.name, i)
+        pads: dict[str, list[int]] = {}
+        for i, pad in enumerate(self.pads):
+            pads.setdefault(pad.net, []).append(i)
+        return nets, {k: tuple(v) for k, v in pads.items()}
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,8 @@ from functools import cached_property
 import numpy as np
 import shapely
 
+from pcbdata.router import clearance_kernel
+from pcbdata.router.clearance_kernel import GridIndex, core_kind
 from pcbdata.router.ray_screen import CapsuleScreen, core_pieces
 
 TOLERANCE = 1e-3  # nm: float rounding of distances (see the module doc); no margin is added
@@ -57,6 +59,11 @@ class _Prepared:
         use it, hence on demand)."""
         return core_pieces(self.core)
 
+    @cached_property
+    def kind(self) -> int:
+        """The core's kind for the compiled test (`clearance_kernel.core_kind`)."""
+        return core_kind(self.core)
+
 
 def _prepare(core: shapely.Geometry, radius: float) -> _Prepared:
     coords = shapely.get_coordinates(core)
@@ -97,6 +104,12 @@ class _Layer:
         pieces = [p.pieces for p in self._prepared]
         owner = np.repeat(np.arange(len(pieces)), [len(p) for p in pieces])
         return np.concatenate(pieces or [np.empty((0, 2, 2))]), owner
+
+    @cached_property
+    def grid(self) -> GridIndex:
+        """The layer's cores for the compiled clearance test (`pcbdata.router.clearance_kernel`)."""
+        pieces, owner = self.pieces
+        return GridIndex(pieces, owner, np.array([p.kind for p in self._prepared], np.int8))
 
     def describe(self, index: int) -> str:
         if self.kind[index] == _EDGE:
@@ -153,6 +166,8 @@ class _Rules:
         out = np.full(len(points), np.inf)
         if not len(screen):
             return out
+        if clearance_kernel.enabled():  # compiled rays stop at their first entry anyway
+            return screen.entries(points, HEADINGS[headings], length)
         # Short rays first: most meet a keep-out soon, and a short ray meets few.
         todo, reach = np.arange(len(points)), min(length, 4 * self.max_need)
         while len(todo):
@@ -209,7 +224,18 @@ class _Rules:
         return seg[near], item[near]
 
     def failing(self, segments: np.ndarray) -> np.ndarray:
-        """Whether each segment (k, 2, 2) violates clearance."""
+        """Whether each segment (k, 2, 2) violates clearance: by the compiled test where it is
+        sure, else by `violations` (the same answers either way; `clearance_kernel`)."""
+        if not clearance_kernel.enabled() or not len(segments) or not self.obstacles:
+            return self._failing_exact(segments)
+        status = self.layer.grid.judge(segments, self.need, self.max_need)
+        bad = status == 1
+        unsure = status == 2
+        if unsure.any():
+            bad[unsure] = self._failing_exact(segments[unsure])
+        return bad
+
+    def _failing_exact(self, segments: np.ndarray) -> np.ndarray:
         bad = np.zeros(len(segments), dtype=bool)
         bad[self.violations(segments)[0]] = True
         return bad

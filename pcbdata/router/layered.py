@@ -235,7 +235,9 @@ class _Layered:
         targets = np.flatnonzero(~closed[span] & (cost < g[span]))
         if len(targets) > LINKS:  # the nearest, and the goal: far links are mostly blocked
             near = targets[np.lexsort((targets, cost[targets]))[:LINKS]]
-            targets = np.union1d(near, np.intersect1d(targets, [1]))
+            if 1 in targets[:2] and 1 not in near:  # the goal (targets are sorted)
+                near = np.append(near, 1)
+            targets = np.sort(near)
         if not len(targets):
             return
         before = graph.checks

@@ -18,6 +18,9 @@ from __future__ import annotations
 import numpy as np
 import shapely
 
+from pcbdata.router import clearance_kernel
+from pcbdata.router.clearance_kernel import CapsuleGrid
+
 
 def core_pieces(core: shapely.Geometry) -> np.ndarray:
     """(k, 2, 2) float: the straight pieces of a core's boundary (a point: one zero-length
@@ -61,6 +64,8 @@ class CapsuleScreen:
         # Queried by the rays' bounding boxes: an exact predicate costs more than the
         # closed-form test that follows.
         self.tree = shapely.STRtree(shapely.box(low[:, 0], low[:, 1], high[:, 0], high[:, 1]))
+        self._low, self._high = low, high
+        self._grid: CapsuleGrid | None = None
 
     def __len__(self) -> int:
         return len(self.table)
@@ -71,6 +76,10 @@ class CapsuleScreen:
         out = np.full(len(points), np.inf)
         if not len(self) or not len(points):
             return out
+        if clearance_kernel.enabled():  # compiled: the cells along each ray, nearest first
+            if self._grid is None:
+                self._grid = CapsuleGrid(self.table, self._low, self._high)
+            return self._grid.entries(points, directions, length)
         ends = points + directions * length
         rays = shapely.linestrings(np.stack([points, ends], axis=1))
         ray, capsule = self.tree.query(rays)

@@ -12,6 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
+from pcbdata.router import clearance_kernel
 from pcbdata.router.clearance import _Layer, _lines, _prepare, _Rules
 from pcbdata.router.geometry import CopperItem, copper_core
 
@@ -52,10 +53,17 @@ class SoftLayer:
         if self.empty or not len(segments):
             return np.empty(0, np.int64), np.empty(0, np.int64)
         rules = self.rules
-        seg, item = rules._near_pairs(segments)
-        if len(seg):
-            close = shapely.distance(_lines(segments[seg]), rules.layer.cores[item])
-            keep = close < rules.need[item]
+        if clearance_kernel.enabled():  # sure pairs compiled, the unsure ones measured below
+            seg, item, status = rules.layer.grid.pairs(segments, rules.need, rules.max_need)
+            unsure = status == 2
+        else:
+            seg, item = rules._near_pairs(segments)
+            unsure = np.ones(len(seg), dtype=bool)
+        if unsure.any():
+            close = shapely.distance(_lines(segments[seg[unsure]]),
+                                     rules.layer.cores[item[unsure]])
+            keep = ~unsure
+            keep[unsure] = close < rules.need[item[unsure]]
             seg, item = seg[keep], item[keep]
         pairs = np.unique(np.stack([seg, self.owner[item]], axis=1), axis=0).reshape(-1, 2)
         return pairs[:, 0], pairs[:, 1]

@@ -180,3 +180,21 @@ def _layered(c, rule, layers):
     return LayeredRequest(c.net, c.a.at, c.a.layers, c.b.at, c.b.layers, rule.width,
                           rule.clearance, rule.via_diameter, tuple(layers),
                           (c.a.reach, c.b.reach))
+
+
+def test_compiled_and_reference_clearance_give_the_same_plan(d3_set, monkeypatch):
+    """The plan of a real board that needs rip-ups is the same with the compiled clearance
+    test (`pcbdata.router.clearance_kernel`) and without it (PCBDATA_NO_NUMBA=1)."""
+    from pcbdata.agents.negotiated import plan_board
+    from pcbdata.router import clearance_kernel
+
+    if clearance_kernel.numba is None:
+        pytest.skip("numba is not installed (scripts/setup.sh installs it)")
+    board_id = _board_id(d3_set, RIPPED)
+    monkeypatch.setenv("PCBDATA_NO_NUMBA", "0")
+    compiled, _ = plan_board(_view(d3_set, board_id))
+    monkeypatch.setenv("PCBDATA_NO_NUMBA", "1")
+    reference, _ = plan_board(_view(d3_set, board_id))
+    assert compiled.stats["rips"] >= 1
+    assert compiled.wires == reference.wires and compiled.open == reference.open
+    assert compiled.stats == reference.stats
