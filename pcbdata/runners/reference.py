@@ -23,7 +23,7 @@ from pcbdata.build.reference import (
 from pcbdata.core.errors import UserError
 
 #: The agents a build may route with: bundled, deterministic, offline. The best first.
-AGENTS = ("scripted-shove", "scripted")
+AGENTS = ("negotiated", "scripted-shove", "scripted")
 DEFAULT_AGENT = AGENTS[0]
 #: As the benchmark's protocol (@5): the reference is within the agent's reach at k = 5.
 DEFAULT_ROLLOUTS = 5

@@ -34,7 +34,8 @@ def _config(root) -> dict:
 
 @pytest.fixture(scope="module")
 def routed(tmp_path_factory):
-    """Two d2r-a test boards with references by scripted-shove (both route at seed 0)."""
+    """Two d2r-a test boards with references by the default agent, negotiated (both route at
+    seed 0)."""
     out = tmp_path_factory.mktemp("routed") / "set"
     assert _build(out, "--reference-agent", "--reference-rollouts", "2") == 0
     return out
@@ -43,12 +44,12 @@ def routed(tmp_path_factory):
 def test_references_are_kept_with_their_origin(routed):
     split = _config(routed)["splits"]["test"]
     assert split["reference_routing"] == {
-        "agent": "scripted-shove", "rollouts": 2, "env_options": {"drc": "step", "max_steps": None},
+        "agent": "negotiated", "rollouts": 2, "env_options": {"drc": "step", "max_steps": None},
         "env_version": 2, "boards": 2, "routed": 2, "not_completed": 0, "engine_failure": 0,
         "check_failed": 0}
     for board_id, board in split["boards"].items():
         origin = board["reference_routing"]
-        assert origin["status"] == "routed" and origin["agent"] == "scripted-shove"
+        assert origin["status"] == "routed" and origin["agent"] == "negotiated"
         assert origin["seed"] == 0 and origin["env_id"] == "pcbdata/Route-d2r-a-v2"
         assert origin["reason"] == "" and origin["package_version"]
         assert REFERENCE_FILE in board["files"]
@@ -94,7 +95,7 @@ def test_a_build_run_again_routes_only_what_it_had_not(routed, tmp_path, capsys)
     assert _build(copy, "--reference-agent", "--reference-rollouts", "2") == 0
     out, err = capsys.readouterr()
     assert "references: 2 of 2 boards routed (1 kept from an earlier run)" in out
-    assert "reference routing (scripted-shove, 2 rollouts): 1/1" in err
+    assert "reference routing (negotiated, 2 rollouts): 1/1" in err
     assert kept.stat().st_mtime_ns == stamp
     assert (copy / "manifest.json").read_bytes() == manifest
     assert _build(copy, "--reference-agent", "--reference-rollouts", "2") == 0

@@ -1,0 +1,92 @@
+"""Plans of the negotiated planner alone (no copper laid): per board its open connections,
+route calls, the plan's digest (sha256 of its wires and open connections: equal digests are
+equal plans) and the CPU seconds of planning.
+
+    python bench/bench_plan.py SET --config d3-b [--boards NAME ...] [--json OUT]
+
+Run it twice, with and without ``PCBDATA_NO_NUMBA=1``, to compare the compiled clearance test
+with the reference form (same digests, the time apart); `--both` does that in one process and
+writes both into `--json`.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import platform
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+import pcbdata.env  # noqa: E402
+from pcbdata.agents.negotiated import plan_board  # noqa: E402
+
+
+def digest(plan) -> str:
+    text = repr((sorted(plan.wires.items()), sorted(plan.open.items())))
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+def plan_once(env, board_id: str) -> dict:
+    env.reset(seed=0, options={"board_id": board_id})
+    view = env.unwrapped.board_view()
+    clock = time.process_time()
+    plan, _ = plan_board(view)
+    seconds = time.process_time() - clock
+    return {"open": len(plan.open), "route_calls": plan.stats.get("route_calls"),
+            "rips": plan.stats.get("rips"), "digest": digest(plan),
+            "cpu_s": round(seconds, 2)}
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("set")
+    parser.add_argument("--config", required=True)
+    parser.add_argument("--split", default="test")
+    parser.add_argument("--boards", nargs="*", help="board ids or name endings (default: all)")
+    parser.add_argument("--both", action="store_true",
+                        help="each board compiled, then with PCBDATA_NO_NUMBA=1")
+    parser.add_argument("--json", help="write the rows and the machine here")
+    args = parser.parse_args(argv)
+    folder = Path(args.set) / args.config / args.split
+    ids = sorted(p.name for p in folder.iterdir() if p.is_dir())
+    if args.boards:
+        ids = [i for i in ids if any(i == b or i.endswith(b) for b in args.boards)]
+    env = pcbdata.env.make(args.set, args.config, split=args.split, drc="terminal")
+    rows = []
+    started = time.strftime("%Y-%m-%dT%H:%M+00:00", time.gmtime())
+    try:
+        for board_id in ids:
+            row = {"board": board_id}
+            forms = ("compiled", "reference") if args.both else ("as_set",)
+            for form in forms:
+                if form != "as_set":
+                    os.environ["PCBDATA_NO_NUMBA"] = "1" if form == "reference" else "0"
+                row[form] = plan_once(env, board_id)
+            if args.both:
+                row["same_plan"] = row["compiled"]["digest"] == row["reference"]["digest"]
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    finally:
+        env.close()
+    if args.json:
+        record = {"command": "python bench/bench_plan.py " + " ".join(sys.argv[1:]),
+                  "started": started,
+                  "finished": time.strftime("%Y-%m-%dT%H:%M+00:00", time.gmtime()),
+                  "machine": f"{os.cpu_count()} cores, {platform.platform()}",
+                  "load_after": " ".join(f"{x:.2f}" for x in os.getloadavg()),
+                  "rows": rows}
+        if args.both:
+            pairs = [(r["compiled"]["cpu_s"], r["reference"]["cpu_s"]) for r in rows]
+            record["summary"] = {
+                "boards": len(rows), "same_plan": sum(r["same_plan"] for r in rows),
+                "compiled_cpu_s": round(sum(a for a, _ in pairs), 1),
+                "reference_cpu_s": round(sum(b for _, b in pairs), 1)}
+        Path(args.json).write_text(json.dumps(record, indent=1) + "\n")
+
+
+if __name__ == "__main__":
+    main()
