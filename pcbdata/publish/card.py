@@ -397,8 +397,9 @@ _LIMITATIONS_SECTION = [
     "they have no zones. Against each tier's held-out half all seven are within SPEC 2b's "
     "per-statistic bound (Kolmogorov-Smirnov distance at most max(0.15, the 1 % critical "
     "value)); jointly, a classifier over the seven cannot tell level `a` from D3-A (ROC AUC "
-    "0.60, target 0.65) but still tells levels `b` and `c` from D3-B and D3-C (0.68 and "
-    "0.70), mostly by pad pitch, pad density and pads per net (docs/realism.md).",
+    "0.60, target 0.65) but still tells levels `b` and `c` 5.0.0 from D3-B and D3-C (0.68 "
+    "and 0.66; two real halves 0.39), mostly by pad pitch, pad density and pads per net "
+    "(docs/realism.md).",
     "- D3 boards are real designs but their rules come from KiCad's migration of older "
     "files plus a compatibility pass that relaxes a few checks; some designs' intended "
     "constraints (differential pairs, length matching, zones refilled after routing) "

@@ -8,6 +8,7 @@ import functools
 import pytest
 
 from pcbdata.core.rng import Stream
+from pcbdata.generators.d2r import D2RParams
 from pcbdata.generators.d2r import footprints as fp
 from pcbdata.generators.d2r.parts import (
     DIP_PINS,
@@ -156,3 +157,34 @@ def test_land_patterns_vary_by_board_one_distance_per_size_within_its_range():
 def test_the_smallest_land_pattern_keeps_its_pads_apart():
     for size, (low, _high) in fp.PASSIVE_PITCH_RANGES_MM.items():
         assert fp.min_gap(fp.passive(size, low)) >= 300_000  # 0.3 mm: above every clearance
+
+
+_VARIANT_NAMES = (tuple(n for n, *_ in fp.RADIAL_VARIANTS)
+                  + tuple(n for n, *_ in fp.THT_CONNECTORS) + fp.SOT_VARIANTS)
+
+
+def test_package_variety_draws_other_packages_of_a_kind():
+    """With `package_variety` 1 every SOT-23, radial part, header and connector drawn from the
+    mix is another package of its kind, and the pitches they bring are many; at 0 none is."""
+    varied = level_config("d2r", "c", {"package_variety": 1.0}).generator()
+    plain = level_config("d2r", "c", {"package_variety": 0.0}).generator()
+    names, pitches = [], set()
+    for i in range(6):
+        for part in varied.generate(0, "test", i).board.parts:
+            names.append(part.name)
+            if len(part.pads) > 1:
+                pitches.add(round(min(
+                    ((a.dx - b.dx) ** 2 + (a.dy - b.dy) ** 2) ** 0.5
+                    for j, a in enumerate(part.pads) for b in part.pads[:j]) / 1e6, 2))
+        for part in plain.generate(0, "test", i).board.parts:
+            assert not part.name.startswith(_VARIANT_NAMES)
+    assert not any(n in ("SOT-23",) or n.startswith("Radial_P") for n in names)
+    assert any(n.startswith(fp.SOT_VARIANTS) for n in names)
+    assert len(pitches) > 25
+
+
+def test_every_package_variant_keeps_its_pads_apart():
+    assert D2RParams(package_variety=0.5).smallest_pad_gap_mm() >= 0.2
+    for template in fp.variant_templates():
+        assert fp.min_gap(template) >= 200_000  # 0.2 mm: above every class clearance
+        assert fp.min_pitch(template) >= 900_000

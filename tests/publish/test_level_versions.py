@@ -18,35 +18,40 @@ SMALL = ["validation", "test"]
 
 
 def test_the_levels_know_their_versions():
-    assert level_versions("d2r", "b") == ["5.0.0", "4.0.0"]
-    assert level_versions("d2r", "a") == level_versions("d2r", "c") == ["4.0.0"]
+    assert level_versions("d2r", "b") == level_versions("d2r", "c") == ["5.0.0", "4.0.0"]
+    assert level_versions("d2r", "a") == ["4.0.0"]
     assert level("d2r", "b").version == "5.0.0"
     old = level("d2r", "b", version="4.0.0")
     assert old.version == "4.0.0" and old.params == D2RParams()  # 4.0.0: the defaults
     assert level("d2r", "a", version="4.0.0") == level("d2r", "a")
+    assert level("d2r", "c").version == "5.0.0"
+    assert level("d2r", "c", version="4.0.0").params.package_variety == 0.0
     with pytest.raises(UserError, match=r"no version '3.0.0' .*versions: 5.0.0, 4.0.0"):
         level("d2r", "b", version="3.0.0")
 
 
 def test_a_parameter_added_later_is_recorded_only_when_set():
-    assert "land_pattern_spread" not in D2RParams().as_dict()
-    assert D2RParams(land_pattern_spread=0.5).as_dict()["land_pattern_spread"] == 0.5
+    for name in ("land_pattern_spread", "package_variety"):
+        assert name not in D2RParams().as_dict()
+        assert D2RParams(**{name: 0.5}).as_dict()[name] == 0.5
     assert level("d2r", "b").params.as_dict()["land_pattern_spread"] == 0.8
+    assert "package_variety" not in level("d2r", "b").params.as_dict()
+    assert level("d2r", "c").params.as_dict()["package_variety"] == 0.3
 
 
 def test_earlier_releases_are_kept_beside_the_current_ones():
-    old, new = pinned_release("d2r-b", "4.0.0"), pinned_release("d2r-b", "5.0.0")
-    assert old is not None and old.source.endswith("d2r-b@4.0.0.json.gz")
-    assert new is not None and new.version == "5.0.0"
-    assert "d2r-b@4.0.0" not in released_configs()
-    for config in ("d2r-a", "d2r-c"):
-        assert pinned_release(config, "4.0.0").source.endswith(f"{config}.json.gz")
+    for config in ("d2r-b", "d2r-c"):
+        old, new = pinned_release(config, "4.0.0"), pinned_release(config, "5.0.0")
+        assert old is not None and old.source.endswith(f"{config}@4.0.0.json.gz")
+        assert new is not None and new.version == "5.0.0"
+        assert f"{config}@4.0.0" not in released_configs()
+    assert pinned_release("d2r-a", "4.0.0").source.endswith("d2r-a.json.gz")
 
 
-@pytest.mark.parametrize("name", ["b"])
+@pytest.mark.parametrize("name", ["b", "c"])
 def test_an_earlier_level_version_rebuilds_its_pinned_release(tmp_path, capsys, name):
-    """Level b 4.0.0, rebuilt today (its validation and test splits), is the boards of its
-    pinned release, byte for byte, and `verify --release` takes them."""
+    """Levels b and c 4.0.0, rebuilt today (their validation and test splits), are the
+    boards of their pinned releases, byte for byte, and `verify --release` takes them."""
     root = tmp_path / "set"
     assert main(["build", "d2r", "--level", name, "--level-version", "4.0.0", "--splits",
                  ",".join(SMALL), "--no-check", "--workers", "2", "--out", str(root)]) == 0

@@ -225,3 +225,69 @@ def min_pitch(template: Template) -> int:
             d = (a.dx - b.dx) ** 2 + (a.dy - b.dy) ** 2
             best = d if best is None else min(best, d)
     return int(best ** 0.5) if best is not None else 0
+
+
+# --- package variants (`package_variety`) ------------------------------------------------
+# Real boards take each kind of part in many packages: a transistor is a SOT-23-5 or a SOT-223
+# as well as a SOT-23, a connector one of dozens of families, a radial part a capacitor of any
+# pin distance, an LED, a crystal. A part drawn as a variant gets one of these.
+#: Axial lead spacings of resistors, diodes and inductors, mm.
+AXIAL_VARIANT_PITCHES = (5.08, 7.62, 10.16, 12.7, 15.24)
+#: Radial parts: (name, pins, pin distance range mm, pad size, drill): capacitors, LEDs,
+#: crystals, TO-92 transistors (inline).
+RADIAL_VARIANTS = (("CP_Radial", 2, (2.0, 7.5), 1.6, 0.8), ("LED_THT", 2, (2.54, 2.54), 1.8, 0.9),
+                   ("Crystal_HC49", 2, (4.88, 4.88), 1.5, 0.8),
+                   ("TO-92", 3, (1.27, 1.27), 1.05, 0.75))
+#: Connector families besides `jst_ph`, `jst_sh`, `terminal_block`: (name, pitch mm, pad size,
+#: drill, pins from, to).
+THT_CONNECTORS = (("JST_XH", 2.5, 1.7, 0.95, 2, 8), ("Molex_KK396", 3.96, 2.5, 1.5, 2, 6),
+                  ("TerminalBlock_P3.5", 3.5, 2.2, 1.2, 2, 6),
+                  ("TerminalBlock_P3.81", 3.81, 2.2, 1.2, 2, 6),
+                  ("TerminalBlock_P5.0", 5.0, 2.6, 1.3, 2, 4),
+                  ("PinHeader_P2.00", 2.0, 1.35, 0.8, 2, 10))
+
+
+def radial_variant(name: str, pins: int, pitch_mm: float, size: float, drill: float) -> Template:
+    """A through-hole part of `pins` pins in a row `pitch_mm` apart (`RADIAL_VARIANTS`; a
+    three-pin one is a transistor, referenced as one)."""
+    kind = "sot23" if pins == 3 else "radial"
+    return _template(f"{name}_P{pitch_mm:g}", kind, _tht_row(pins, pitch_mm, size, drill))
+
+
+def tht_connector(name: str, pitch_mm: float, size: float, drill: float, n: int) -> Template:
+    """A through-hole connector of `THT_CONNECTORS`: n pins in a row."""
+    return _template(f"{name}_1x{n:02d}", "connector", _tht_row(n, pitch_mm, size, drill))
+
+
+def sot_variant(name: str) -> Template:
+    """Small transistor and regulator packages besides the SOT-23: SOT-23-5 and -6 (0.95 mm
+    pins), SC-70 (1.3 mm between pins 1 and 2), SOT-89 (1.5 mm, a tab), SOT-223 (2.3 mm, a
+    tab)."""
+    if name in ("SOT-23-5", "SOT-23-6"):
+        pads = [_pad(i + 1, -1.1, (i - 1) * 0.95, "roundrect", 1.06, 0.6) for i in range(3)]
+        right = (-0.95, 0.95) if name == "SOT-23-5" else (-0.95, 0.0, 0.95)
+        pads += [_pad(4 + i, 1.1, y, "roundrect", 1.06, 0.6) for i, y in enumerate(right)]
+    elif name == "SC-70":
+        pads = [_pad(1, -0.95, 0.65, "roundrect", 0.9, 0.45),
+                _pad(2, -0.95, -0.65, "roundrect", 0.9, 0.45),
+                _pad(3, 0.95, 0.0, "roundrect", 0.9, 0.45)]
+    elif name == "SOT-89":
+        pads = [_pad(i + 1, (i - 1) * 1.5, 1.9, "roundrect", 0.6, 1.4) for i in range(3)]
+        pads.append(_pad(4, 0, -0.75, "rect", 2.2, 2.4))
+    else:  # SOT-223
+        pads = [_pad(i + 1, (i - 1) * 2.3, 3.15, "roundrect", 1.0, 1.9) for i in range(3)]
+        pads.append(_pad(4, 0, -3.15, "rect", 3.3, 1.9))
+    return _template(name, "sot23", pads)
+
+
+SOT_VARIANTS = ("SOT-23-5", "SOT-23-6", "SC-70", "SOT-89", "SOT-223")
+
+
+def variant_templates() -> list[Template]:
+    """One template of every variant at the ends of its ranges (for the parameters' gap
+    check)."""
+    out = [radial_variant(n, k, r, s, d) for n, k, rng, s, d in RADIAL_VARIANTS for r in rng]
+    out += [tht_connector(n, p, s, d, 2) for n, p, s, d, _, _ in THT_CONNECTORS]
+    out += [sot_variant(n) for n in SOT_VARIANTS]
+    out += [axial(p) for p in AXIAL_VARIANT_PITCHES]
+    return out

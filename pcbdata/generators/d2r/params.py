@@ -23,7 +23,7 @@ _FRACTIONS = ("passive_size_consistency", "back_side_fraction",
               "four_layer_fraction", "exposed_pad_fraction", "mounting_hole_fraction",
               "decoupling_fraction", "connected_fraction", "two_row_header_fraction",
               "fill_style_coupling", "top_up_by_pins", "packed_fraction",
-              "land_pattern_spread")
+              "land_pattern_spread", "package_variety")
 _CLASS_LENGTHS = ("clearance_mm", "track_width_mm", "via_diameter_mm", "via_drill_mm")
 
 
@@ -50,6 +50,10 @@ class D2RParams(GeneratorParams):
     #: The share of boards whose passives come from another land-pattern library: one pad
     #: centre distance per size drawn from its published range (0: every board nominal).
     land_pattern_spread: float = 0.0
+    #: The share of passives, axial and radial parts, SOT-23s, headers and connectors drawn
+    #: in another package of their kind (`parts._variant`: diodes, 2.0 mm headers, connector
+    #: families, ...; 0: none, no draw).
+    package_variety: float = 0.0
     qfn_pitches_mm: tuple[float, ...] = (0.4, 0.5, 0.65)
     qfp_pitches_mm: tuple[float, ...] = (0.4, 0.5, 0.65, 0.8)
     radial_pitches_mm: tuple[float, ...] = (2.5, 3.5, 5.0)
@@ -95,7 +99,7 @@ class D2RParams(GeneratorParams):
     power_via_drill_mm: float = 0.4
 
     LABEL = "d2r"
-    RECORDED_WHEN_SET = ("land_pattern_spread",)
+    RECORDED_WHEN_SET = ("land_pattern_spread", "package_variety")
 
     @staticmethod
     def coerce(key: str, value, annotation: str, where: str):
@@ -225,6 +229,8 @@ class D2RParams(GeneratorParams):
         templates += [fp.passive(s) for s in fp.PASSIVES] + [fp.tssop(8), fp.soic(8)]
         if self.land_pattern_spread:
             templates += [fp.passive(s, fp.PASSIVE_PITCH_RANGES_MM[s][0]) for s in fp.PASSIVES]
+        if self.package_variety:
+            templates += fp.variant_templates()
         templates += [fp.sot23(), fp.pin_header(2, 2), fp.jst_ph(2), fp.jst_sh(2),
                       fp.terminal_block(2), fp.dip(8)]
         templates += [fp.axial(p) for p in fp.AXIAL_PITCHES]

@@ -101,6 +101,8 @@ class PartDrawer:
 
     def _of_kind(self, stream: Stream, style: Style, kind: str) -> fp.Template:
         p = self.p
+        if p.package_variety and kind in VARIANT_KINDS and stream.random() < p.package_variety:
+            return _variant(stream, kind)
         if kind == "passive":
             size = weighted(stream, style.passive_sizes)
             return fp.passive(size, (style.passive_pitches or {}).get(size))
@@ -152,6 +154,30 @@ class PartDrawer:
             return fp.qfn(size, stream.choice(p.qfn_pitches_mm),
                           stream.random() < p.exposed_pad_fraction)
         return fp.qfp(size, stream.choice(p.qfp_pitches_mm))
+
+
+# Kinds that come in other packages (`package_variety`, `_variant`).
+VARIANT_KINDS = ("axial", "radial", "sot23", "header", "connector")
+
+
+def _variant(stream: Stream, kind: str) -> fp.Template:
+    """A part of `kind` in another package than the level's own (`package_variety`): another
+    lead spacing for an axial part, a capacitor of another pin distance (to 0.01 mm), an LED,
+    a crystal or a TO-92 for a radial one, a SOT-23-5/6, SC-70, SOT-89 or SOT-223 for a
+    SOT-23, a 2.0 mm header or another connector family for a header or connector
+    (`fp.RADIAL_VARIANTS`, `fp.THT_CONNECTORS`). SMD passives keep their kind's land patterns
+    (`land_pattern_spread` varies those)."""
+    if kind == "axial":
+        return fp.axial(stream.choice(fp.AXIAL_VARIANT_PITCHES))
+    if kind == "radial":
+        name, count, (low, high), size, drill = fp.RADIAL_VARIANTS[
+            stream.integer(len(fp.RADIAL_VARIANTS))]
+        pitch = low if low == high else round(stream.uniform(low, high), 2)
+        return fp.radial_variant(name, count, pitch, size, drill)
+    if kind == "sot23":
+        return fp.sot_variant(stream.choice(fp.SOT_VARIANTS))
+    name, pitch, size, drill, low, high = fp.THT_CONNECTORS[stream.integer(len(fp.THT_CONNECTORS))]
+    return fp.tht_connector(name, pitch, size, drill, low + stream.integer(high - low + 1))
 
 
 def _connector(family: str, count: int) -> fp.Template:
