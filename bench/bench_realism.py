@@ -390,7 +390,8 @@ def difficulty(args, d3_root: Path, tier: str) -> dict:
     for side, (root, config, split, ids) in sides.items():
         suffix = "" if args.drc == "step" else f"-drc-{args.drc}"
         runs = work / f"{side}-{config}-{args.agent}{suffix}"
-        _rollouts(root, config, split, ids, args.agent, runs, args.workers, args.drc)
+        _rollouts(root, config, split, ids, args.agent, runs, args.workers, args.drc,
+                  args.rollout_timeout)
         out[side] = _cp_at1(root, config, split, ids, runs, work / f"{runs.name}-report",
                             args.workers)
         out[side].update(config=config, split=split)
@@ -399,8 +400,9 @@ def difficulty(args, d3_root: Path, tier: str) -> dict:
 
 
 def _rollouts(root: Path, config: str, split: str, board_ids: list[str], agent: str,
-              runs: Path, workers: int, drc: str) -> None:
-    """One rollout (seed 0) per board, as `pcbdata rollout` runs them, for chosen boards."""
+              runs: Path, workers: int, drc: str, timeout: float | None = None) -> None:
+    """One rollout (seed 0) per board, as `pcbdata rollout` runs them, for chosen boards; a
+    rollout past `timeout` seconds (default: the runner's) leaves no board, CP 0."""
     from pcbdata.env.registry import env_id_for
     from pcbdata.executors import resolve
     from pcbdata.runners.rollout import ROLLOUT_TIMEOUT, pending
@@ -412,7 +414,7 @@ def _rollouts(root: Path, config: str, split: str, board_ids: list[str], agent: 
     if not tasks:
         return
     with resolve(None).pool(workers=max(1, min(workers, len(tasks))),
-                            task_timeout=ROLLOUT_TIMEOUT, tasks_per_worker=10**9,
+                            task_timeout=timeout or ROLLOUT_TIMEOUT, tasks_per_worker=10**9,
                             memory_limit_mb=0) as pool:
         outcomes = pool.map("pcbdata.runners.rollout:rollout_task", tasks)
         errors = [_report_rollout(done, len(tasks), config, todo[outcome.index][0], outcome)
@@ -596,6 +598,9 @@ def _parser() -> argparse.ArgumentParser:
                         help="also the agent's CP @1 on the synthetic set vs the real tier")
     parser.add_argument("--agent", default="scripted-shove", help="agent for --difficulty")
     parser.add_argument("--boards", type=int, default=64, help="boards per side (--difficulty)")
+    parser.add_argument("--rollout-timeout", type=float, metavar="SECONDS",
+                        help="a rollout longer than this leaves no board and scores CP 0 "
+                             "(--difficulty; default: the runner's 3600 s)")
     parser.add_argument("--drc", choices=("step", "terminal"), default="step",
                         help="the environment's DRC, as `pcbdata rollout --drc` (default: step)")
     parser.add_argument("--workers", type=int, default=2, help="rollout and eval workers")
