@@ -392,8 +392,9 @@ def difficulty(args, d3_root: Path, tier: str) -> dict:
         runs = work / f"{side}-{config}-{args.agent}{suffix}"
         _rollouts(root, config, split, ids, args.agent, runs, args.workers, args.drc,
                   args.rollout_timeout)
+        # the synthetic side's boards are the split's first ones: only they are scored
         out[side] = _cp_at1(root, config, split, ids, runs, work / f"{runs.name}-report",
-                            args.workers)
+                            args.workers, limit=len(ids) if side == "synthetic" else None)
         out[side].update(config=config, split=split)
     out.update(agent=args.agent, drc=args.drc)
     return out
@@ -431,13 +432,13 @@ def _report_rollout(done: int, total: int, config: str, board_id: str, outcome) 
 
 
 def _cp_at1(root: Path, config: str, split: str, board_ids: list[str], runs: Path,
-            report: Path, workers: int) -> dict:
-    """Mean CP @1 over the chosen boards (`pcbdata eval`; boards not chosen have no
-    rollout and are left out of the mean)."""
+            report: Path, workers: int, limit: int | None = None) -> dict:
+    """Mean CP @1 over the chosen boards (`pcbdata eval`, of the split's first `limit` boards
+    when given; boards not chosen have no rollout and are left out of the mean)."""
     from pcbdata.evaluator.runs import evaluate_set
 
     evaluate_set(root, config, split, report, runs=runs, k=1, workers=workers,
-                 progress=False)
+                 progress=False, limit=limit)
     with open(report / "per_board.csv", newline="", encoding="utf-8") as handle:
         rows = {r["board_id"]: r for r in csv.DictReader(handle)}
     cps = [float(rows[b]["cp"] or 0) for b in board_ids]
