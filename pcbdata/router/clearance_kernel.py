@@ -128,16 +128,23 @@ def _reduce(ufunc, values: np.ndarray, owner: np.ndarray, n: int) -> np.ndarray:
 
 
 @_jit
+def _cell_span(lo, hi, origin, cell, n):
+    """The cells [first, last] that the interval [lo, hi] covers on one axis, clamped to the
+    grid's n cells."""
+    first = min(max(int((lo - origin) // cell), 0), n - 1)
+    last = min(max(int((hi - origin) // cell), 0), n - 1)
+    return first, last
+
+
+@_jit
 def _grid(box, origin, cell, nx, ny):
     counts = np.zeros(nx * ny + 1, np.int64)
     n = box.shape[0]
     for i in range(n):
         if box[i, 0] != box[i, 0]:  # nan: an item without pieces
             continue
-        x0 = min(max(int((box[i, 0] - origin[0]) // cell), 0), nx - 1)
-        x1 = min(max(int((box[i, 2] - origin[0]) // cell), 0), nx - 1)
-        y0 = min(max(int((box[i, 1] - origin[1]) // cell), 0), ny - 1)
-        y1 = min(max(int((box[i, 3] - origin[1]) // cell), 0), ny - 1)
+        x0, x1 = _cell_span(box[i, 0], box[i, 2], origin[0], cell, nx)
+        y0, y1 = _cell_span(box[i, 1], box[i, 3], origin[1], cell, ny)
         for gx in range(x0, x1 + 1):
             for gy in range(y0, y1 + 1):
                 counts[gx * ny + gy + 1] += 1
@@ -147,10 +154,8 @@ def _grid(box, origin, cell, nx, ny):
     for i in range(n):
         if box[i, 0] != box[i, 0]:
             continue
-        x0 = min(max(int((box[i, 0] - origin[0]) // cell), 0), nx - 1)
-        x1 = min(max(int((box[i, 2] - origin[0]) // cell), 0), nx - 1)
-        y0 = min(max(int((box[i, 1] - origin[1]) // cell), 0), ny - 1)
-        y1 = min(max(int((box[i, 3] - origin[1]) // cell), 0), ny - 1)
+        x0, x1 = _cell_span(box[i, 0], box[i, 2], origin[0], cell, nx)
+        y0, y1 = _cell_span(box[i, 1], box[i, 3], origin[1], cell, ny)
         for gx in range(x0, x1 + 1):
             for gy in range(y0, y1 + 1):
                 c = gx * ny + gy
@@ -276,10 +281,8 @@ def _judge(segs, pieces, start, end, kinds, box, need, max_need, origin, cell, n
         hix = max(ax, bx)
         loy = min(ay, by)
         hiy = max(ay, by)
-        x0 = min(max(int((lox - grow - origin[0]) // cell), 0), nx - 1)
-        x1 = min(max(int((hix + grow - origin[0]) // cell), 0), nx - 1)
-        y0 = min(max(int((loy - grow - origin[1]) // cell), 0), ny - 1)
-        y1 = min(max(int((hiy + grow - origin[1]) // cell), 0), ny - 1)
+        x0, x1 = _cell_span(lox - grow, hix + grow, origin[0], cell, nx)
+        y0, y1 = _cell_span(loy - grow, hiy + grow, origin[1], cell, ny)
         status = 0
         for gx in range(x0, x1 + 1):
             for gy in range(y0, y1 + 1):
@@ -325,10 +328,8 @@ def _pairs(segs, pieces, start, end, kinds, box, need, max_need, origin, cell, n
         hix = max(ax, bx)
         loy = min(ay, by)
         hiy = max(ay, by)
-        x0 = min(max(int((lox - grow - origin[0]) // cell), 0), nx - 1)
-        x1 = min(max(int((hix + grow - origin[0]) // cell), 0), nx - 1)
-        y0 = min(max(int((loy - grow - origin[1]) // cell), 0), ny - 1)
-        y1 = min(max(int((hiy + grow - origin[1]) // cell), 0), ny - 1)
+        x0, x1 = _cell_span(lox - grow, hix + grow, origin[0], cell, nx)
+        y0, y1 = _cell_span(loy - grow, hiy + grow, origin[1], cell, ny)
         for gx in range(x0, x1 + 1):
             for gy in range(y0, y1 + 1):
                 c = gx * ny + gy
@@ -439,8 +440,7 @@ def _ray_entries(points, directions, length, table, origin, cell, nx, ny, first,
             n_major, n_minor = ny, nx
             o_major, o_minor = origin[1], origin[0]
             a_mj, a_mn, b_mj, b_mn, d_mj = py, px, qy, qx, dy
-        g0 = min(max(int((min(a_mj, b_mj) - o_major) // cell), 0), n_major - 1)
-        g1 = min(max(int((max(a_mj, b_mj) - o_major) // cell), 0), n_major - 1)
+        g0, g1 = _cell_span(min(a_mj, b_mj), max(a_mj, b_mj), o_major, cell, n_major)
         step = 1 if a_mj <= b_mj else -1
         first_g, last_g = (g0, g1) if step == 1 else (g1, g0)
         best = np.inf
@@ -449,8 +449,7 @@ def _ray_entries(points, directions, length, table, origin, cell, nx, ny, first,
             c0 = o_major + g * cell
             lo, hi = _band(a_mj, a_mn, b_mj, b_mn, c0, c0 + cell, 0.0)
             if lo <= hi:
-                h0 = min(max(int((lo - o_minor) // cell), 0), n_minor - 1)
-                h1 = min(max(int((hi - o_minor) // cell), 0), n_minor - 1)
+                h0, h1 = _cell_span(lo, hi, o_minor, cell, n_minor)
                 for h in range(h0, h1 + 1):
                     c = g * ny + h if x_major else h * ny + g
                     for m in range(first[c], first[c + 1]):
