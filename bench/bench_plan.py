@@ -37,6 +37,7 @@ def plan_once(env, board_id: str) -> dict:
     plan, _ = plan_board(view)
     seconds = time.process_time() - clock
     return {"open": len(plan.open), "route_calls": plan.stats.get("route_calls"),
+            "work": plan.stats.get("work"),
             "rips": plan.stats.get("rips"), "digest": digest(plan),
             "cpu_s": round(seconds, 2)}
 

@@ -19,8 +19,9 @@ way even on the board without planned copper is *boxed in*; one that has a way t
 through copper that may not be ripped is *congested*; one that ran out of the budget is
 *budget*. Later rounds put the connections left open first; the best state seen (most
 connections routed, then least wire) is the plan. Work is counted in route calls
-(`budget_routes`) and the searches' expansions and link checks, never timed: the same board
-gives the same plan on any machine.
+(`budget_routes`), each search's expansions and link checks, and the link checks of all the
+plan's searches together (`budget_work`), never timed: the same board gives the same plan on
+any machine.
 
 Every leg is a walkaround or layered path and every via fits where it stands, so the planned
 copper keeps clearance by construction; KiCad judges it when it is laid
@@ -51,6 +52,10 @@ from pcbdata.router.walkaround import WalkaroundRouter
 
 #: Route calls a plan may make (the budget), and rip-ups of one connection at most.
 BUDGET_ROUTES = 3000
+#: Link checks the searches of a plan may make in all (the routers' counted work, answers
+#: remembered from earlier searches free); the plan stops where either budget runs out. The
+#: completed D3-B and D3-C test picks need at most 9.2 million at seed 0.
+BUDGET_WORK = 40_000_000
 MAX_RIPS = 3
 #: What crossing a planned connection costs the rip-up search, in nm of track (once more for
 #: every time that connection was ripped up before).
@@ -115,7 +120,8 @@ class Negotiator:
 
     def __init__(self, board: BoardGeometry, layers: tuple[str, ...],
                  rules: dict[str, NetRule], connections: list[Connection],
-                 budget_routes: int = BUDGET_ROUTES, max_rips: int = MAX_RIPS,
+                 budget_routes: int = BUDGET_ROUTES, budget_work: int = BUDGET_WORK,
+                 max_rips: int = MAX_RIPS,
                  restarts: int = RESTARTS, router_nodes: int | None = None,
                  router_checks: int | None = None, via_cost: int = VIA_COST,
                  rip_price: int = RIP_PRICE):
@@ -123,6 +129,7 @@ class Negotiator:
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
         self.budget, self.max_rips, self.restarts = budget_routes, max_rips, restarts
+        self.budget_work = budget_work
         self.via_cost, self.rip_price = via_cost, rip_price
         self.bare = WalkaroundRouter(board, **budgets)  # the board without planned copper
         self.connections = [_accessible(self.bare, rules[c.net], c) for c in connections]
@@ -151,15 +158,25 @@ class Negotiator:
             rounds += 1
             if best is None or _rank(plan) < _rank(best):
                 best = plan
-            if not best.open or self.calls >= self.budget:
+            if not best.open or self._spent():
                 break
             first = sorted(best.open, key=lambda i: (self.connections[i].length, i))
             order = first + [i for i in order if i not in best.open]
         assert best is not None
         best.open = {i: self._cause(i, c) for i, c in sorted(best.open.items())}
-        best.stats = {**best.stats, "route_calls": self.calls, "rounds": rounds,
+        best.stats = {**best.stats, "route_calls": self.calls, "work": self.work,
+                      "rounds": rounds,
                       "connections": len(self.connections)}
         return best
+
+    @property
+    def work(self) -> int:
+        """Link checks made by the plan's searches so far."""
+        return self.bare._shared.work
+
+    def _spent(self) -> bool:
+        """Whether the plan's budget is spent: its route calls or its searches' work."""
+        return self.calls >= self.budget or self.work >= self.budget_work
 
     def _round(self, order: list[int]) -> Plan:
         self._reset()
@@ -177,7 +194,7 @@ class Negotiator:
                 failed.pop(index, None)
             best = self._keep_best(best, failed)
         for index in [i for i in failed if i not in self.wires]:  # copper moved since
-            if self.calls < self.budget and self._route_here(index):
+            if not self._spent() and self._route_here(index):
                 failed.pop(index)
                 best = self._keep_best(best, failed)
         wires, open_ = (best[2], best[3]) if best else ({}, {})
@@ -186,7 +203,7 @@ class Negotiator:
     def _cause(self, index: int, cause: str) -> str:
         """The cause of an open connection: `boxed_in` where even the board without planned
         copper has no way for it (a repeated request costs nothing: the router remembers)."""
-        if cause == "budget" or self.calls >= self.budget:
+        if cause == "budget" or self._spent():
             return cause
         return "boxed_in" if self._way(self.bare, index) is None else cause
 
@@ -205,7 +222,7 @@ class Negotiator:
         """Routes connection `index` (ripping others up if that is the way); '' or a cause.
         The rip-up search sees the board without the planned copper that may still be ripped
         up (connections ripped `max_rips` times stay as obstacles)."""
-        if self.calls >= self.budget:
+        if self._spent():
             return "budget"
         if self._route_here(index):
             return ""
@@ -213,7 +230,7 @@ class Negotiator:
         if wire is None:  # the way that crosses planned copper regardless of its price
             wire = self._way(self._fixed(), index)
         if wire is None:
-            return "budget" if self.calls >= self.budget else "congestion"
+            return "budget" if self._spent() else "congestion"
         blockers = self._blockers(index, wire)
         for b in blockers:
             self._drop(b)
@@ -299,7 +316,7 @@ class Negotiator:
                     return Wire(c.net, ((layer, path),))
             if len(self.layers) < 2:
                 return None
-        if self.calls >= self.budget:
+        if self._spent():
             return None
         self.calls += 1
         result = router.route_layers(LayeredRequest(
@@ -315,7 +332,7 @@ class Negotiator:
     def _leg(self, router, net, layer, a: Point, b: Point, rule: NetRule):
         if a == b:
             return (a,)
-        if self.calls >= self.budget:
+        if self._spent():
             return None
         self.calls += 1
         result = router.route(RouteRequest(net=net, layer=layer, start=a, goal=b,

@@ -197,6 +197,7 @@ class WalkaroundRouter:
                 stats = {**known.stats, "seconds": time.perf_counter() - clock}
                 return RouteResult(known.path, known.reason, stats)
         result = self._route(request, clock)
+        self._shared.work += int(result.stats.get("checks", 0))
         if key is not None:
             kept = replace(result, stats=dict(result.stats))
             self._shared.remember(self._shared.routes, key, kept)
@@ -210,7 +211,9 @@ class WalkaroundRouter:
         layer it may use; with `soft`, copper it may cross at a price (`pcbdata.router.soft`;
         not remembered)."""
         if soft is not None:
-            return route_layers(self, request, soft)
+            result = route_layers(self, request, soft)
+            self._shared.work += int(result.stats.get("checks", 0))
+            return result
         key = (tuple(self._layer_key(lay) for lay in request.layers), request,
                self.budget_nodes, self.budget_checks)
         known = self._shared.routes.get(key)
@@ -218,6 +221,7 @@ class WalkaroundRouter:
             self._shared.routes.move_to_end(key)
             return known
         result = route_layers(self, request)
+        self._shared.work += int(result.stats.get("checks", 0))
         self._shared.remember(self._shared.routes, key, result)
         return result
 
@@ -372,6 +376,9 @@ class _Memory:
         self.rules: OrderedDict = OrderedDict()
         self.routes: OrderedDict = OrderedDict()
         self.vias: OrderedDict = OrderedDict()  # via candidates (`layered.via_candidates`)
+        #: Link checks made by searches worked out (not remembered) so far: the routers'
+        #: counted work, which a caller may budget (`pcbdata.router.negotiate`).
+        self.work = 0
 
     def remember(self, table: OrderedDict, key, value) -> None:
         table[key] = value

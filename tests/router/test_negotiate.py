@@ -103,6 +103,20 @@ def test_plans_are_deterministic_and_the_budget_counts_route_calls():
     assert set(short.open.values()) <= {"budget"} and len(short.wires) == 1
 
 
+def test_the_work_budget_counts_link_checks_and_stops_the_plan():
+    board, connections, rules = gates_board()
+    full = Negotiator(board, LAYERS, rules, connections, restarts=0).run()
+    assert full.open == {} and full.stats["work"] > 0
+    # A routes straight (no search, no checks); B's first search spends the budget of one
+    # check, so the plan stops there with B open for want of budget
+    short = Negotiator(board, LAYERS, rules, connections, restarts=0, budget_work=1).run()
+    assert short.open == {1: "budget"} and sorted(short.wires) == [0]
+    assert 1 <= short.stats["work"] < full.stats["work"]
+    assert short.stats["route_calls"] < full.stats["route_calls"]
+    again = Negotiator(board, LAYERS, rules, connections, restarts=0, budget_work=1).run()
+    assert again.wires == short.wires and again.stats == short.stats
+
+
 def test_boxed_in_end_is_named():
     board, _, rules = gates_board()
     walls = tuple(CopperItem(kind="zone", net="WALL", layers=LAYERS, clearance=mm(0.2),
