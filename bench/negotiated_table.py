@@ -1,7 +1,8 @@
 """Per-board table of `--agent negotiated` runs: connections planned, the ones left open by
-cause (boxed-in pin, congestion, budget), route calls, rip-ups, rounds, and what KiCad found at
-the end (unconnected items, DRV), with each rollout's time; beside it, where given, another
-agent's runs on the same boards (U and DRV per board, best rollout by fewest U).
+cause (boxed-in pin, congestion, budget), route calls, the plan's work (link checks), rip-ups,
+rounds, and what KiCad found at the end (unconnected items, DRV), with each rollout's time;
+beside it, where given, another agent's runs on the same boards (U and DRV per board, best
+rollout by fewest U).
 
     python bench/negotiated_table.py RUNS [--vs OTHER_RUNS [--vs-name NAME]]
         [--json bench/runs/X.json] [--note TEXT]
@@ -38,7 +39,8 @@ def rows(runs: Path, other: Path | None, name: str = "other") -> list[dict]:
         row = {"board": board_id, "rollouts": len(records),
                "connections": report.get("connections"),
                **{c: (report.get("open") or {}).get(c) for c in CAUSES},
-               "route_calls": report.get("route_calls"), "rips": report.get("rips"),
+               "route_calls": report.get("route_calls"), "work": report.get("work"),
+               "rips": report.get("rips"),
                "rounds": report.get("rounds"), "U": best["unconnected"], "DRV": best["drv"],
                "clean": sum(r["unconnected"] == 0 and r["drv"] == 0 for r in records),
                "median_s": statistics.median(r["time_s"] for r in records)}
