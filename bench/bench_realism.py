@@ -37,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import machine  # noqa: E402
 
 from pcbdata.core import tree  # noqa: E402
+from pcbdata.realism.classifier import AUC_TARGET, classifier_auc  # noqa: E402
 from pcbdata.realism.external import external_samples  # noqa: E402
 from pcbdata.realism.noise import (  # noqa: E402
     NoiseFloor,
@@ -230,52 +231,7 @@ def spec_bound(n: int, m: int) -> float | None:
 
 
 # --- the joint test: a classifier that tells real boards from level boards ----------------
-
-#: SPEC 2b: the classifier's cross-validated ROC AUC, at most this.
-AUC_TARGET = 0.65
-
-
-def _features(stats: list[BoardStatistics]) -> list[list[float]]:
-    """One row per board: the seven statistics, pads per net as the board's mean, undefined
-    values (no closed outline, no multi-pad part) as NaN, which the classifier takes."""
-    def value(s: BoardStatistics, name: str) -> float:
-        v = getattr(s, name)
-        if isinstance(v, tuple):
-            return sum(v) / len(v) if v else math.nan
-        return math.nan if v is None else float(v)
-
-    return [[value(s, name) for name in STATISTICS] for s in stats]
-
-
-def classifier_auc(real: list[BoardStatistics], ours: list[BoardStatistics],
-                   seed: int = 0) -> tuple[float, dict[str, float]]:
-    """10-fold cross-validated ROC AUC of a gradient-boosted classifier (scikit-learn's
-    histogram one, which takes undefined values) telling `real` from `ours` (equal sizes) over
-    the seven statistics, and each statistic's permutation
-    importance (mean AUC drop) on the folds' held-out parts. Needs scikit-learn."""
-    try:
-        from sklearn.ensemble import HistGradientBoostingClassifier
-        from sklearn.inspection import permutation_importance
-        from sklearn.model_selection import StratifiedKFold
-    except ImportError as exc:  # an optional extra: the package's core does not need it
-        raise SystemExit(f"the classifier test needs scikit-learn (pip install "
-                         f"'pcbdata[realism]'): {exc}") from None
-    import numpy as np
-
-    x = np.array(_features(real) + _features(ours))
-    y = np.array([1] * len(real) + [0] * len(ours))
-    folds = StratifiedKFold(n_splits=10, shuffle=True, random_state=seed)
-    scores, importance = [], np.zeros(len(STATISTICS))
-    from sklearn.metrics import roc_auc_score
-
-    for train, test in folds.split(x, y):
-        model = HistGradientBoostingClassifier(random_state=seed).fit(x[train], y[train])
-        scores.append(roc_auc_score(y[test], model.predict_proba(x[test])[:, 1]))
-        drop = permutation_importance(model, x[test], y[test], scoring="roc_auc",
-                                      n_repeats=5, random_state=seed)
-        importance += drop.importances_mean
-    return float(np.mean(scores)), {n: float(v / 10) for n, v in zip(STATISTICS, importance)}
-
+# (pcbdata.realism.classifier)
 
 def classifier_table(d3_root: Path, tier: str, synthetic: list[BoardStatistics],
                      samples: int) -> dict:
