@@ -5,6 +5,7 @@
         [--difficulty --agent scripted-shove --boards 64 --workers 2]
     python bench/bench_realism.py --d3 D3_DIR --write-targets PATH
     python bench/bench_realism.py --d3 D3_DIR --noise [--draws 1000] [--tier A]
+    python bench/bench_realism.py --d3 D3_DIR --noise --classifier [--draws 10 --samples 20]
     python bench/bench_realism.py --d3 D3_DIR --synthetic SET_DIR --config d2r-a --tier A
         --half extended --pcbench PCBENCH_DIR [--external-work DIR]
 
@@ -16,7 +17,7 @@ held-out half the Kolmogorov-Smirnov distances are measured against; the halves 
 name (`pcbdata/resources/realism/calibration.json`: the D3 1.0.0 table's), so later D3 rows do
 not move boards between them. Each distance is shown against SPEC 2b's bound, max(0.15, the 1 %
 critical value of the two sample sizes); `--classifier` adds the joint test (ROC AUC of a
-gradient-boosted classifier, target 0.65, with the real-half-against-real-half noise floor).
+gradient-boosted classifier, target 0.65); `--noise --classifier` gives that test's floor.
 With `--pcbench`, the calibration side may add the PCBench boards of the tier's size that D3's
 revalidation dropped (`--half extended`, `pcbdata.realism.external`): more real
 boards to fit on, none of the held-out half.
@@ -37,11 +38,15 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _measure import machine  # noqa: E402
 
 from pcbdata.core import tree  # noqa: E402
+from pcbdata.realism.classifier import AUC_TARGET, classifier_auc  # noqa: E402
 from pcbdata.realism.external import external_samples  # noqa: E402
 from pcbdata.realism.noise import (  # noqa: E402
+    ClassifierFloor,
     NoiseFloor,
+    calibration_copy_aucs,
     calibration_copy_distances,
     perfect_generator_distances,
+    real_split_aucs,
 )
 from pcbdata.realism.statistics import (  # noqa: E402
     NET_SHAPES,
@@ -230,61 +235,22 @@ def spec_bound(n: int, m: int) -> float | None:
 
 
 # --- the joint test: a classifier that tells real boards from level boards ----------------
-
-#: SPEC 2b: the classifier's cross-validated ROC AUC, at most this.
-AUC_TARGET = 0.65
-
-
-def _features(stats: list[BoardStatistics]) -> list[list[float]]:
-    """One row per board: the seven statistics, pads per net as the board's mean, undefined
-    values (no closed outline, no multi-pad part) as NaN, which the classifier takes."""
-    def value(s: BoardStatistics, name: str) -> float:
-        v = getattr(s, name)
-        if isinstance(v, tuple):
-            return sum(v) / len(v) if v else math.nan
-        return math.nan if v is None else float(v)
-
-    return [[value(s, name) for name in STATISTICS] for s in stats]
-
-
-def classifier_auc(real: list[BoardStatistics], ours: list[BoardStatistics],
-                   seed: int = 0) -> tuple[float, dict[str, float]]:
-    """10-fold cross-validated ROC AUC of a gradient-boosted classifier (scikit-learn's
-    histogram one, which takes undefined values) telling `real` from `ours` (equal sizes) over
-    the seven statistics, and each statistic's permutation
-    importance (mean AUC drop) on the folds' held-out parts. Needs scikit-learn."""
-    try:
-        from sklearn.ensemble import HistGradientBoostingClassifier
-        from sklearn.inspection import permutation_importance
-        from sklearn.model_selection import StratifiedKFold
-    except ImportError as exc:  # an optional extra: the package's core does not need it
-        raise SystemExit(f"the classifier test needs scikit-learn (pip install "
-                         f"'pcbdata[realism]'): {exc}") from None
-    import numpy as np
-
-    x = np.array(_features(real) + _features(ours))
-    y = np.array([1] * len(real) + [0] * len(ours))
-    folds = StratifiedKFold(n_splits=10, shuffle=True, random_state=seed)
-    scores, importance = [], np.zeros(len(STATISTICS))
-    from sklearn.metrics import roc_auc_score
-
-    for train, test in folds.split(x, y):
-        model = HistGradientBoostingClassifier(random_state=seed).fit(x[train], y[train])
-        scores.append(roc_auc_score(y[test], model.predict_proba(x[test])[:, 1]))
-        drop = permutation_importance(model, x[test], y[test], scoring="roc_auc",
-                                      n_repeats=5, random_state=seed)
-        importance += drop.importances_mean
-    return float(np.mean(scores)), {n: float(v / 10) for n, v in zip(STATISTICS, importance)}
-
+# (pcbdata.realism.classifier; its floor: classifier_noise_table below)
 
 def classifier_table(d3_root: Path, tier: str, synthetic: list[BoardStatistics],
-                     samples: int) -> dict:
-    """The classifier test of a tier: held-out real boards against `samples` disjoint level
-    samples of the same size (mean and spread of the AUC, mean importances), and the same test
-    calibration half against held-out half (the noise floor)."""
+                     samples: int, half: str = "held-out") -> dict:
+    """The classifier test of a tier: the real boards of `half` (SPEC 2b: held-out; or
+    calibration) against `samples` disjoint level samples of the same size (mean and spread of
+    the AUC, mean importances), and the same test other half against that half (below 0.5:
+    the halves interleave in pads; the floor is `classifier_noise_table`)."""
     import statistics as stats_
 
+    if half not in ("held-out", "calibration"):
+        raise SystemExit(f"bench_realism: the classifier test is against the held-out or the "
+                         f"calibration half, not {half}")
     calibration, held_out = halves(d3_tier_boards(d3_root, tier), tier)
+    if half == "calibration":
+        calibration, held_out = held_out, calibration
     real, cal = measure(held_out), measure(calibration)
     m = len(real)
     if len(synthetic) < samples * m:
@@ -297,7 +263,7 @@ def classifier_table(d3_root: Path, tier: str, synthetic: list[BoardStatistics],
     return {"boards": m, "samples": samples, "auc_mean": stats_.fmean(aucs),
             "auc_std": stats_.stdev(aucs) if len(aucs) > 1 else 0.0,
             "auc_max": max(aucs), "importance": importance, "real_vs_real_auc": floor,
-            "target": AUC_TARGET}
+            "target": AUC_TARGET, "half": half}
 
 
 def _effective_size(weights: list[float]) -> int:
@@ -329,6 +295,89 @@ def noise_table(d3_root: Path, tiers: list[str], draws: int) -> dict:
         table[tier] = {"boards": len(boards), "held_out": held_out_size, "draws": draws,
                        **{key: _noise_summary(floor) for key, floor in floors.items()}}
     return table
+
+
+#: The classifier floors of `--noise --classifier`, in table order: key, label.
+CLASSIFIER_FLOORS = (
+    ("copy_spec", "copy of the calibration half (bootstrap), SPEC halves"),
+    ("smoothed_copy_spec", "smoothed copy, SPEC halves"),
+    ("smoothed_copy_interleaved", "smoothed copy, random pads-interleaved halves"),
+    ("smoothed_copy_random", "smoothed copy, random halves"),
+    ("real_halves_spec", "calibration half itself, SPEC halves (fold seeds vary)"),
+    ("real_halves_interleaved", "real half vs real half, random pads-interleaved halves"),
+    ("permutation_null", "real half vs real half, random halves (labels shuffled)"),
+)
+
+
+def classifier_noise_table(d3_root: Path, tiers: list[str], draws: int, samples: int) -> dict:
+    """Per tier, the classifier test's AUC for generators whose only error is sampling
+    (`pcbdata.realism.noise`): copies of the calibration half (each draw `samples` level
+    samples of the held-out half's size), plain and smoothed, and the two real halves against
+    each other; `draws` splits (the SPEC's halves: `draws` x `samples` level samples; the real
+    halves: `draws` x `samples` splits, the SPEC's own halves `samples` fold seeds)."""
+    from pcbdata.realism.classifier import features
+    from pcbdata.realism.noise import Smoother
+
+    table: dict = {}
+    for tier in tiers:
+        start = time.perf_counter()
+        boards = d3_tier_boards(d3_root, tier)
+        names = calibration_names(tier)
+        mask = [b.board_id[5:] in names for b in boards]
+        stats = measure(boards)
+        copies = {"copy_spec": {}, "smoothed_copy_spec": {"smoothing": 1.0},
+                  "smoothed_copy_interleaved": {"smoothing": 1.0, "split": "interleaved"},
+                  "smoothed_copy_random": {"smoothing": 1.0, "split": "random"}}
+        floors = {key: calibration_copy_aucs(stats, mask, draws=draws, samples=samples, **kw)
+                  for key, kw in copies.items()}
+        floors["real_halves_spec"] = real_split_aucs(stats, mask, split="spec", draws=samples)
+        floors["real_halves_interleaved"] = real_split_aucs(stats, mask, split="interleaved",
+                                                            draws=draws * samples)
+        floors["permutation_null"] = real_split_aucs(stats, mask, split="random",
+                                                     draws=draws * samples)
+        smoother = Smoother(features([s for s, m in zip(stats, mask, strict=True) if m]))
+        table[tier] = {"boards": len(stats), "calibration": sum(mask),
+                       "held_out": len(mask) - sum(mask), "target": AUC_TARGET,
+                       "smoothing_bandwidths_log": {k: round(v, 4) for k, v in
+                                                    smoother.bandwidths.items()},
+                       "shared_pitches": len(smoother.shared_pitches),
+                       **{key: _classifier_floor_summary(floors[key])
+                          for key, _ in CLASSIFIER_FLOORS},
+                       "seconds": round(time.perf_counter() - start, 1)}
+        _say(f"D3-{tier}: classifier floors in {table[tier]['seconds']} s")
+    return table
+
+
+def _classifier_floor_summary(floor: ClassifierFloor) -> dict:
+    return {"draws": floor.draws, "samples": floor.samples, "mean": round(floor.mean, 4),
+            "std_one_sample": round(floor.std, 4),
+            "std_of_draw_means": round(float(floor.draw_means.std(ddof=1)), 4)
+            if floor.draws > 1 else 0.0,
+            "draw_mean_p5_p50_p95": [round(floor.quantile(q), 4) for q in (5, 50, 95)],
+            "share_of_draws_above_target": round(floor.share_above(AUC_TARGET), 4),
+            "share_of_samples_above_target": round(floor.sample_share_above(AUC_TARGET), 4),
+            "draw_means": [round(float(v), 4) for v in floor.draw_means]}
+
+
+def classifier_noise_markdown(report: dict) -> str:
+    lines = []
+    for tier, row in report["classifier_noise"].items():
+        lines += [f"D3-{tier} classifier floors ({row['calibration']} calibration, "
+                  f"{row['held_out']} held-out boards; level samples of {row['held_out']}): "
+                  f"ROC AUC mean, spread of one sample, 5 / 50 / 95 % of the draws' means, "
+                  f"share of draws (their mean) and of single samples above "
+                  f"{row['target']}", "",
+                  "| floor | draws x samples | mean | spread | 5 / 50 / 95 % | draws above "
+                  "| samples above |", "|---|---:|---:|---:|---:|---:|---:|"]
+        for key, label in CLASSIFIER_FLOORS:
+            f = row[key]
+            p5, p50, p95 = f["draw_mean_p5_p50_p95"]
+            lines.append(f"| {label} | {f['draws']} x {f['samples']} | {f['mean']:.3f} | "
+                         f"{f['std_one_sample']:.3f} | {p5:.3f} / {p50:.3f} / {p95:.3f} | "
+                         f"{100 * f['share_of_draws_above_target']:.0f} % | "
+                         f"{100 * f['share_of_samples_above_target']:.0f} % |")
+        lines.append("")
+    return "\n".join(lines)
 
 
 def _noise_summary(floor: NoiseFloor) -> dict:
@@ -468,10 +517,12 @@ def markdown(report: dict) -> str:
         lines.append(f"| {label} | " + " | ".join(cells) + " |")
     for tier, c in report.get("classifier", {}).items():
         top = sorted(c["importance"].items(), key=lambda kv: -kv[1])[:2]
-        lines.append(f"\nD3-{tier} classifier test ({c['boards']} held-out boards vs "
+        lines.append(f"\nD3-{tier} classifier test ({c['boards']} "
+                     f"{c.get('half', 'held-out').replace('-', ' ')} boards vs "
                      f"{c['samples']} level samples): ROC AUC {c['auc_mean']:.3f} +- "
                      f"{c['auc_std']:.3f} (max {c['auc_max']:.3f}; target <= {c['target']}), "
-                     f"real half vs real half {c['real_vs_real_auc']:.3f}; leans on "
+                     f"real half vs real half {c['real_vs_real_auc']:.3f} (pads-interleaved "
+                     f"halves, below 0.5; the floor: --noise --classifier); leans on "
                      + ", ".join(f"{n} ({v:.3f})" for n, v in top))
     for tier, side in report.get("difficulty", {}).items():
         real, ours = side["real"], side["synthetic"]
@@ -506,8 +557,15 @@ def main(argv: list[str] | None = None) -> None:
     start = time.perf_counter()
     report = {"machine": machine(), "date": time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
               "load_average": os.getloadavg(), "d3": str(d3_root)}
+    if args.noise and args.classifier:
+        draws = args.draws or 10
+        report["classifier_noise"] = classifier_noise_table(d3_root, args.tier, draws,
+                                                            args.samples)
+        report["seconds"] = round(time.perf_counter() - start, 1)
+        _write(args, report, classifier_noise_markdown(report))
+        return
     if args.noise:
-        report["noise"] = noise_table(d3_root, args.tier, args.draws)
+        report["noise"] = noise_table(d3_root, args.tier, args.draws or 1000)
         report["seconds"] = round(time.perf_counter() - start, 1)
         _write(args, report, noise_markdown(report))
         return
@@ -525,7 +583,8 @@ def main(argv: list[str] | None = None) -> None:
                       half=args.half, ks=ks_table(d3_root, args.tier, ours, args.half,
                                                   external))
         if args.classifier:
-            report["classifier"] = {tier: classifier_table(d3_root, tier, ours, args.samples)
+            report["classifier"] = {tier: classifier_table(d3_root, tier, ours, args.samples,
+                                                           args.half)
                                     for tier in args.tier}
     if args.difficulty and not args.halves:
         report["difficulty"] = {tier: difficulty(args, d3_root, tier) for tier in args.tier}
@@ -585,8 +644,10 @@ def _parser() -> argparse.ArgumentParser:
     parser.add_argument("--noise", action="store_true",
                         help="the distances sampling alone gives on each tier: a copy of the "
                              "calibration half, and a generator drawing from the tier itself "
-                             "(pcbdata.realism.noise)")
-    parser.add_argument("--draws", type=int, default=1000, help="simulated draws (--noise)")
+                             "(pcbdata.realism.noise); with --classifier, the classifier "
+                             "test's AUC for such generators instead")
+    parser.add_argument("--draws", type=int, help="simulated draws (--noise; default 1000, "
+                        "with --classifier 10 splits of --samples level samples each)")
     parser.add_argument("--write-targets", metavar="PATH",
                         help="only write each tier's calibration-half summary (JSON)")
     parser.add_argument("--classifier", action="store_true",
