@@ -13,6 +13,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from pcbdata.core.errors import UserError
 from pcbdata.realism.statistics import STATISTICS, BoardStatistics
 
 #: SPEC 2b: the classifier's cross-validated ROC AUC, at most this.
@@ -51,8 +52,8 @@ def feature_auc(real: np.ndarray, ours: np.ndarray, seed: int = 0,
         from sklearn.metrics import roc_auc_score
         from sklearn.model_selection import StratifiedKFold
     except ImportError as exc:  # an optional extra: the package's core does not need it
-        raise SystemExit(f"the classifier test needs scikit-learn (pip install "
-                         f"'pcbdata[realism]'): {exc}") from None
+        raise UserError(f"the classifier test needs scikit-learn (pip install "
+                        f"'pcbdata[realism]'): {exc}") from None
 
     x = np.vstack([real, ours])
     y = np.array([1] * len(real) + [0] * len(ours))
