@@ -398,10 +398,10 @@ _LIMITATIONS_SECTION = [
     "per-statistic bound (Kolmogorov-Smirnov distance at most max(0.15, the 1 % critical "
     "value)); jointly, a classifier over the seven cannot tell level `a` from D3-A (ROC AUC "
     "0.60, target 0.65) but still tells levels `b` and `c` 5.0.0 from D3-B and D3-C (0.68 "
-    "and 0.66; two real halves 0.39), mostly by pad pitch, pad density and pads per net. "
-    "The negotiated agent completes about as many level boards as tier boards at seed 0 "
-    "(a: 98.4 against 98.4 %, b: 85.9 against 89.1 %, on 64 boards each; c measured on 47 "
-    "level boards only) (docs/realism.md).",
+    "and 0.66; a smoothed copy of the calibration half 0.54 and 0.58), mostly by pad pitch, "
+    "pad density and pads per net. The negotiated agent completes about as many level "
+    "boards as tier boards at seed 0 (64 boards each; a: 98.4 against 98.4 %, b: 85.9 "
+    "against 89.1 %, c: 62.5-64.1 against 62.5 %) (docs/realism.md).",
     "- D3 boards are real designs but their rules come from KiCad's migration of older "
     "files plus a compatibility pass that relaxes a few checks; some designs' intended "
     "constraints (differential pairs, length matching, zones refilled after routing) "
