@@ -2,7 +2,7 @@
 preset's or the user's (`--set`) values, and its plain form for the manifest."""
 from __future__ import annotations
 
-from dataclasses import asdict, fields
+from dataclasses import MISSING, asdict, fields
 from difflib import SequenceMatcher, get_close_matches
 from typing import Any
 
@@ -62,7 +62,9 @@ class GeneratorParams:
     def as_dict(self) -> dict:
         """The full parameter set, but `RECORDED_WHEN_SET` parameters at their default."""
         data = asdict(self)  # type: ignore[call-overload]
-        defaults = {f.name: f.default for f in fields(self)  # type: ignore[arg-type]
+        defaults = {f.name: (f.default_factory() if f.default_factory is not MISSING
+                             else f.default)
+                    for f in fields(self)  # type: ignore[arg-type]
                     if f.name in self.RECORDED_WHEN_SET}
         return {k: (list(v) if isinstance(v, tuple) else v) for k, v in data.items()
                 if not (k in defaults and v == defaults[k])}

@@ -11,7 +11,8 @@ import pytest
 from pcbdata.core.errors import UserError
 from pcbdata.core.rng import Stream
 from pcbdata.core.tree import PROJECT_FILE, RULES_FILE
-from pcbdata.generators.d2r.generator import D2RGenerator, D2RParams, pad_position
+from pcbdata.generators.d2r import footprints as fp
+from pcbdata.generators.d2r.generator import D2RGenerator, D2RParams, _Draws, pad_position
 from pcbdata.kicad import DrcReport
 from pcbdata.model.board import Board, EdgeArc
 from pcbdata.model.kicad_writer import board_files
@@ -142,6 +143,30 @@ def test_radial_parts_take_the_levels_pitches():
     assert names == {"Radial_P3.5"}
 
 
+def test_passives_from_a_library_take_its_land_patterns():
+    """With `land_pattern_library` every board off the nominal land patterns takes one
+    published library distance per size (`PASSIVE_LIBRARY_PITCHES_MM`), no value between."""
+    sample = _boards("b", 30, {"land_pattern_spread": 1.0, "land_pattern_library": 1.0,
+                               "part_mix": {"passive": 0.8, "header": 0.2}})
+    allowed = {f"RC_{size}_P{v:g}" for size, values in fp.PASSIVE_LIBRARY_PITCHES_MM.items()
+               for v in values}
+    names = {p.name for board in sample for p in board.parts if p.name.startswith("RC_")}
+    assert names <= allowed and len(names) >= 8
+
+
+@pytest.mark.parametrize("sign", [1, -1])
+def test_joint_correlation_draws_a_boards_choices_together(sign):
+    """A board's draws follow `joint_correlation`: with part count and layer count correlated,
+    four-layer boards have more parts than two-layer ones (fewer at a negative correlation);
+    each draw keeps its own distribution (about `four_layer_fraction` of the boards)."""
+    sample = _boards("a", 80, {"four_layer_fraction": 0.5, "components_range": [2, 60],
+                               "joint_correlation": {"components:layers": sign * 0.9}})
+    four = [len(b.parts) for b in sample if b.copper_layers == 4]
+    two = [len(b.parts) for b in sample if b.copper_layers == 2]
+    assert 25 <= len(four) <= 55
+    assert sign * (statistics.median(four) - statistics.median(two)) >= 3
+
+
 def _smd_share_and_density(board: Board) -> tuple[float, float]:
     parts = [p for p in board.parts if p.pads and p.pads[0].plated]
     smd = sum(1 for p in parts if not any(pad.drill for pad in p.pads)) / len(parts)
@@ -165,7 +190,7 @@ def test_pad_targets_outside_the_range_are_drawn_again_not_piled_at_its_ends():
     ends; drawing again spreads them over the range, as real tiers are."""
     generator = level_config("d2r", "a", {"pads_range": [15, 25],
                                  "pads_per_component_sigma": 0.5}).generator()
-    targets = [generator._pad_target(Stream(0, 3, 0, "test", i), 6)
+    targets = [generator._pad_target(_Draws(Stream(0, 3, 0, "test", i), None), 6)
                for i in range(400)]
     assert 15 <= min(targets) and max(targets) <= 25
     at_ends = sum(t in (15, 25) for t in targets) / len(targets)
@@ -213,7 +238,8 @@ def test_a_net_size_spread_gives_boards_of_two_pad_nets_and_boards_of_larger_one
 
 # Level b 4.0.0's part draws (the parameter defaults), which level b 5.0.0 changes.
 LEVEL_B_4_PARTS = {"pads_per_component_sigma": 0.15, "top_up_by_pins": 0.0,
-                   "land_pattern_spread": 0.0}
+                   "land_pattern_spread": 0.0, "package_variety": 0.0, "style_spread": 1.0,
+                   "joint_correlation": {}}
 
 
 def test_a_power_spread_gives_boards_of_small_and_large_power_nets():
@@ -251,6 +277,12 @@ def test_a_power_spread_gives_boards_of_small_and_large_power_nets():
     ({"fill_range": 0.5}, "must be a range [low, high]"),
     ({"components_median": "many"}, "must be a number"),
     ({"locality": 2.5}, "must be an integer"),
+    ({"joint_correlation": {"fill:colour": 0.3}}, "keys are two different draws 'a:b'"),
+    ({"joint_correlation": {"fill:fill": 0.3}}, "keys are two different draws 'a:b'"),
+    ({"joint_correlation": {"fill:power": 1.0}}, "fill:power must lie strictly between -1 and 1"),
+    ({"joint_correlation": {"fill:power": 0.9, "fill:style": 0.9, "power:style": -0.9}},
+     "do not fit together"),
+    ({"land_pattern_library": 1.5}, "land_pattern_library must be in [0, 1]"),
 ])
 def test_bad_parameters_are_rejected_with_the_reason(overrides, message):
     with pytest.raises(UserError, match=message.replace("[", r"\[").replace("(", r"\(")):

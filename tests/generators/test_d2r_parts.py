@@ -139,7 +139,8 @@ def _passive_pitches(board) -> dict[str, set[float]]:
 def test_land_patterns_vary_by_board_one_distance_per_size_within_its_range():
     """With `land_pattern_spread` 1 every board draws one pad centre distance per passive
     size, in the size's range, to 0.01 mm; at 0 every passive is nominal."""
-    varied = level_config("d2r", "b", {"land_pattern_spread": 1.0}).generator()
+    varied = level_config("d2r", "b", {"land_pattern_spread": 1.0,
+                                       "land_pattern_library": 0.0}).generator()
     nominal = level_config("d2r", "b", {"land_pattern_spread": 0.0}).generator()
     seen: set[float] = set()
     for i in range(20):
@@ -157,6 +158,8 @@ def test_land_patterns_vary_by_board_one_distance_per_size_within_its_range():
 def test_the_smallest_land_pattern_keeps_its_pads_apart():
     for size, (low, _high) in fp.PASSIVE_PITCH_RANGES_MM.items():
         assert fp.min_gap(fp.passive(size, low)) >= 300_000  # 0.3 mm: above every clearance
+    for size, values in fp.PASSIVE_LIBRARY_PITCHES_MM.items():  # 0.25: above 0.15 clearances
+        assert fp.min_gap(fp.passive(size, min(values))) >= 250_000
 
 
 _VARIANT_NAMES = (tuple(n for n, *_ in fp.RADIAL_VARIANTS)

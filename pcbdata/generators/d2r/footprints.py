@@ -23,6 +23,15 @@ PASSIVES = {"0402": (0.54, 0.64, 0.97), "0603": (0.8, 0.95, 1.5),
 # one distance per size, uniform in this range (mm).
 PASSIVE_PITCH_RANGES_MM = {"0402": (0.9, 1.3), "0603": (1.4, 1.9), "0805": (1.9, 2.5),
                            "1206": (2.7, 3.6)}
+# The pad centre distances of published libraries' land patterns of each size (mm): KiCad's
+# own over its history (its KiCad 4 `Resistors_SMD` and `Capacitors_SMD` libraries, nominal and
+# hand-soldering, every version; its KiCad 5 IPC-7351 nominal ones) and the IPC nominal of
+# `PASSIVES`. A board drawing its passives' land patterns from a library
+# (`land_pattern_library`) takes one of these per size, as boards made with such libraries do.
+PASSIVE_LIBRARY_PITCHES_MM = {"0402": (0.82, 0.9, 0.97, 1.1),
+                              "0603": (1.5, 1.524, 1.65, 1.9, 2.2),
+                              "0805": (1.7, 1.9, 2.0, 2.5, 2.6, 2.7),
+                              "1206": (2.9, 2.925, 3.0, 3.4, 4.0, 4.6)}
 # Fine-pitch packages: pitch -> pad width across the pitch (what keeps the gap between pins).
 QFN_PAD_WIDTH = {0.4: 0.2, 0.5: 0.25, 0.65: 0.35}
 QFP_PAD_WIDTH = {0.4: 0.2, 0.5: 0.28, 0.65: 0.38, 0.8: 0.5}

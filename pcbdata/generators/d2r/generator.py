@@ -28,7 +28,7 @@ from pcbdata.generators.d2r.layout import (
     outline_length,
     round_to,
 )
-from pcbdata.generators.d2r.params import D2RParams
+from pcbdata.generators.d2r.params import JOINT_DRAWS, D2RParams, joint_factor
 from pcbdata.generators.d2r.parts import (
     PartDrawer,
     Style,
@@ -60,6 +60,36 @@ def _normal(stream: Stream) -> float:
     return math.sqrt(-2.0 * math.log(1.0 - u1)) * math.cos(2.0 * math.pi * u2)
 
 
+class _Draws:
+    """A board's `JOINT_DRAWS`: with `joint_correlation`, drawn together up front as one
+    Gaussian vector (its factor times independent normals); without, each from the stream when
+    it is needed, as before the parameter existed (the same boards)."""
+
+    def __init__(self, stream: Stream, factor: list[list[float]] | None):
+        self.stream = stream
+        self.joint: dict[str, float] = {}
+        if factor is not None:
+            z = [_normal(stream) for _ in JOINT_DRAWS]
+            self.joint = {name: math.fsum(factor[i][k] * z[k] for k in range(i + 1))
+                          for i, name in enumerate(JOINT_DRAWS)}
+
+    def normal(self, name: str) -> float:
+        return self.joint[name] if name in self.joint else _normal(self.stream)
+
+    def share(self, name: str, fraction: float) -> bool:
+        """Whether the board is among a `fraction` of boards: the joint draw in its top
+        `fraction` (a higher draw, more likely), else the stream's draw below `fraction`."""
+        if name in self.joint:
+            return self.uniform(name) >= 1.0 - fraction
+        return self.stream.random() < fraction
+
+    def uniform(self, name: str) -> float:
+        """In [0, 1]: the joint draw's normal CDF, else the stream's draw."""
+        if name in self.joint:
+            return 0.5 * math.erfc(-self.joint[name] / math.sqrt(2.0))
+        return self.stream.random()
+
+
 class D2RGenerator:
     """Realistic boards. Guarantee (besides `Generator`'s): courtyards of one side never
     overlap, and a through-hole part's or mounting hole's courtyard overlaps no other; every
@@ -76,6 +106,7 @@ class D2RGenerator:
         self.params = params or D2RParams()
         p = self.params
         self.parts = PartDrawer(p)
+        self._factor = joint_factor(p.joint_correlation) if p.joint_correlation else None
         self.rules = Rules(clearance=mm_to_nm(p.clearance_mm),
                            track_width=mm_to_nm(p.track_width_mm),
                            edge_clearance=mm_to_nm(p.edge_clearance_mm),
@@ -86,20 +117,21 @@ class D2RGenerator:
         check_seed(seed)
         stream = Stream(seed, self.seed_key, 0, split, index)
         p = self.params
-        layers = 4 if stream.random() < p.four_layer_fraction else 2
-        count = self._component_count(stream)
-        mix, smd_lean = self._board_mix(stream)
+        draws = _Draws(stream, self._factor)
+        layers = 4 if draws.share("layers", p.four_layer_fraction) else 2
+        count = self._component_count(draws)
+        mix, smd_lean = self._board_mix(draws)
         style = Style(mix, self._board_passives(stream), smd_lean,
                       self._board_land_patterns(stream))
         templates = [self.parts.from_mix(stream, style) for _ in range(count)]
-        pad_target = self._pad_target(stream, count)
+        pad_target = self._pad_target(draws, count)
         self._top_up(stream, style, templates, pad_target)
         sides = ["B" if not t.through_hole and stream.random() < p.back_side_fraction else "F"
                  for t in templates]
         holes = 4 if stream.random() < p.mounting_hole_fraction else 0
         outline, parts = self._layout(stream, templates, sides, holes, style,
-                                      f"{split} {index}")
-        parts = _Nets(stream, p, pad_target).assign(parts)
+                                      f"{split} {index}", draws.uniform("fill"))
+        parts = _Nets(stream, p, pad_target, draws).assign(parts)
         power = tuple(n for n in ("GND", *_RAILS) if _has_net(parts, n))
         board = Board(width=outline.width, height=outline.height, rules=self.rules, pads=[],
                       uuid_seed=f"d2r/{seed}/{split}/{index}", parts=parts, copper_layers=layers,
@@ -113,34 +145,37 @@ class D2RGenerator:
                         via_diameter=mm_to_nm(p.power_via_diameter_mm),
                         via_drill=mm_to_nm(p.power_via_drill_mm), nets=nets)
 
-    def _component_count(self, stream: Stream) -> int:
+    def _component_count(self, draws: _Draws) -> int:
         p = self.params
-        value = math.exp(math.log(p.components_median) + p.components_sigma * _normal(stream))
+        value = math.exp(math.log(p.components_median)
+                         + p.components_sigma * draws.normal("components"))
         low, high = p.components_range
         return min(high, max(low, int(round(value))))
 
-    def _pad_target(self, stream: Stream, components: int) -> int:
+    def _pad_target(self, draws: _Draws, components: int) -> int:
         """Terminal pads to aim for: components times a lognormal ratio, within the range. A
         target outside the range is drawn again (clipping it would pile boards up at the
         range's ends, where real tiers have no such peaks), and clipped only after
-        `_TARGET_REDRAWS` draws (a count far outside the range)."""
+        `_TARGET_REDRAWS` draws (a count far outside the range); the first draw is the board's
+        joint one (`joint_correlation`), the others the stream's."""
         p = self.params
         low, high = p.pads_range
         target = low
-        for _ in range(_TARGET_REDRAWS):
+        for attempt in range(_TARGET_REDRAWS):
+            z = draws.normal("pads_per_component") if attempt == 0 else _normal(draws.stream)
             ratio = math.exp(math.log(p.pads_per_component_median)
-                             + p.pads_per_component_sigma * _normal(stream))
+                             + p.pads_per_component_sigma * z)
             target = int(round(components * ratio))
             if low <= target <= high:
                 return target
         return min(high, max(low, target))
 
-    def _board_mix(self, stream: Stream) -> tuple[dict[str, float], float]:
+    def _board_mix(self, draws: _Draws) -> tuple[dict[str, float], float]:
         """The part mix of one board and its SMD lean: real boards lean through-hole or SMD as
         a whole, so the two groups' weights are tilted by one draw per board (`style_spread`
         0: no tilt; above 1 a share of the boards, growing with it, has no part of the other
         group at all, as many real boards)."""
-        tilt = self.params.style_spread * (2 * stream.random() - 1)
+        tilt = self.params.style_spread * (2 * draws.uniform("style") - 1)
         factor = {kind: max(0.0, 1 + tilt) for kind in _THT_STYLE}
         factor.update({kind: max(0.0, 1 - tilt) for kind in _SMD_STYLE})
         mix = {k: w * factor.get(k, 1.0) for k, w in self.params.part_mix.items()}
@@ -160,11 +195,16 @@ class D2RGenerator:
         """The pad centre distances of this board's passives: real boards take their land
         patterns from one of many libraries, so a share `land_pattern_spread` of the boards
         gets one distance per size drawn from the size's published range
-        (`fp.PASSIVE_PITCH_RANGES_MM`, to 0.01 mm); the others keep the nominal ones (no draw
-        at 0: boards unchanged)."""
+        (`fp.PASSIVE_PITCH_RANGES_MM`, to 0.01 mm), or, a share `land_pattern_library` of them,
+        from published libraries' values (`fp.PASSIVE_LIBRARY_PITCHES_MM`); the others keep
+        the nominal ones (no draw at 0: boards unchanged)."""
         share = self.params.land_pattern_spread
         if not share or stream.random() >= share:
             return None
+        library = self.params.land_pattern_library
+        if library and stream.random() < library:
+            return {size: stream.choice(fp.PASSIVE_LIBRARY_PITCHES_MM[size])
+                    for size in sorted(fp.PASSIVES)}
         return {size: round(stream.uniform(*fp.PASSIVE_PITCH_RANGES_MM[size]), 2)
                 for size in sorted(fp.PASSIVES)}
 
@@ -218,12 +258,12 @@ class D2RGenerator:
         height = max(area / width, widest)
         return (width, height) if stream.random() < 0.5 else (height, width)
 
-    def _fill(self, stream: Stream, style: Style) -> float:
+    def _fill(self, drawn_share: float, style: Style) -> float:
         """The board's fill, log-uniform in `fill_range` (real boards span a decade of
         densities), pulled towards the range's top by the board's SMD lean as far as
         `fill_style_coupling` says: dense real boards are SMD boards."""
         low, high = (math.log(v) for v in self.params.fill_range)
-        drawn = stream.uniform(low, high)
+        drawn = low + (high - low) * drawn_share
         coupling = self.params.fill_style_coupling
         if coupling:
             drawn = (1 - coupling) * drawn + coupling * (low + style.smd_lean * (high - low))
@@ -241,12 +281,13 @@ class D2RGenerator:
         return math.log(fill) >= high - share * (high - low)
 
     def _layout(self, stream: Stream, templates: list[fp.Template], sides: list[str],
-                holes: int, style: Style, label: str) -> tuple[Outline, list[Part]]:
+                holes: int, style: Style, label: str,
+                fill_share: float) -> tuple[Outline, list[Part]]:
         p = self.params
         # Big parts first: small ones fill the gaps left between them.
         order = sorted(range(len(templates)), key=lambda i: (
             -templates[i].courtyard[0] * templates[i].courtyard[1], i))
-        fill = self._fill(stream, style)
+        fill = self._fill(fill_share, style)
         if self._packs(fill):
             return self._packed_layout(stream, templates, sides, holes, order)
         width, height = self._board_size(stream, templates, sides, fill)
@@ -385,8 +426,9 @@ class _Nets:
     the board has its target of terminal pads (or no free pin is left), never more than
     `max_connections` ratsnest edges in all."""
 
-    def __init__(self, stream: Stream, params: D2RParams, target: int):
+    def __init__(self, stream: Stream, params: D2RParams, target: int, draws: _Draws):
         self.stream = stream
+        self.draws = draws
         self.p = params
         self.target = target  # terminal pads: signal nets stop growing once reached
         self.nets: dict[tuple[int, int], str] = {}
@@ -410,7 +452,7 @@ class _Nets:
         fraction = self.p.decoupling_fraction
         if not self.p.power_spread:
             return fraction
-        scale = 1 + self.p.power_spread * (2 * self.stream.random() - 1)
+        scale = 1 + self.p.power_spread * (2 * self.draws.uniform("power") - 1)
         return min(1.0, fraction * scale)
 
     def _connections(self) -> int:
@@ -491,7 +533,7 @@ class _Nets:
         weights = [self.p.signal_net_sizes[s] for s in sizes]
         if not self.p.net_size_spread:
             return weights
-        tilt = self.p.net_size_spread * (2 * self.stream.random() - 1)
+        tilt = self.p.net_size_spread * (2 * self.draws.uniform("net_sizes") - 1)
         return [w * math.exp(tilt * (int(s) - 2)) for s, w in zip(sizes, weights)]
 
     def _neighbours(self, pin, wanted: int, pins, where, skipped) -> list[tuple[int, int]]:

@@ -23,8 +23,12 @@ _FRACTIONS = ("passive_size_consistency", "back_side_fraction",
               "four_layer_fraction", "exposed_pad_fraction", "mounting_hole_fraction",
               "decoupling_fraction", "connected_fraction", "two_row_header_fraction",
               "fill_style_coupling", "top_up_by_pins", "packed_fraction",
-              "land_pattern_spread", "package_variety")
+              "land_pattern_spread", "land_pattern_library", "package_variety")
 _CLASS_LENGTHS = ("clearance_mm", "track_width_mm", "via_diameter_mm", "via_drill_mm")
+#: A board's draws that `joint_correlation` can correlate: its part count, pads per part, style
+#: tilt, fill, power share (`power_spread`), net size tilt (`net_size_spread`) and layer count.
+JOINT_DRAWS = ("components", "pads_per_component", "style", "fill", "power", "net_sizes",
+               "layers")
 
 
 @dataclass(frozen=True)
@@ -50,6 +54,10 @@ class D2RParams(GeneratorParams):
     #: The share of boards whose passives come from another land-pattern library: one pad
     #: centre distance per size drawn from its published range (0: every board nominal).
     land_pattern_spread: float = 0.0
+    #: Of those boards, the share taking one distance per size from published libraries'
+    #: values (`fp.PASSIVE_LIBRARY_PITCHES_MM`) instead of uniform in the range (0: none, no
+    #: draw).
+    land_pattern_library: float = 0.0
     #: The share of passives, axial and radial parts, SOT-23s, headers and connectors drawn
     #: in another package of their kind (`parts._variant`: diodes, 2.0 mm headers, connector
     #: families, ...; 0: none, no draw).
@@ -83,6 +91,11 @@ class D2RParams(GeneratorParams):
     #: Per board, `decoupling_fraction` scaled by a factor uniform in [1 - spread, 1 + spread]
     #: (at most 1): boards with few power pins and boards with many (0: the level's fraction).
     power_spread: float = 0.5
+    #: Pairwise correlations of a board's `JOINT_DRAWS`, {"fill:power" = 0.3, ...}: the board
+    #: draws them together, as one Gaussian vector with these correlations (a Gaussian copula:
+    #: each draw keeps its own distribution), instead of one by one (empty: independent, no
+    #: joint draw).
+    joint_correlation: dict[str, float] = field(default_factory=dict)
     locality: int = 4
     max_connections: int = KICAD_MAX_UNCONNECTED
     compactness: int = 4
@@ -99,14 +112,16 @@ class D2RParams(GeneratorParams):
     power_via_drill_mm: float = 0.4
 
     LABEL = "d2r"
-    RECORDED_WHEN_SET = ("land_pattern_spread", "package_variety")
+    RECORDED_WHEN_SET = ("land_pattern_spread", "land_pattern_library", "package_variety",
+                         "joint_correlation")
 
     @staticmethod
     def coerce(key: str, value, annotation: str, where: str):
         return _coerce(key, value, annotation, where)
 
     def __post_init__(self) -> None:
-        problems = self._ranges() or self._tables() or self._lengths() or self._rules()
+        problems = (self._ranges() or self._tables() or self._joint() or self._lengths()
+                    or self._rules())
         if problems:
             raise UserError("invalid d2r parameters: " + "; ".join(problems))
 
@@ -182,6 +197,22 @@ class D2RParams(GeneratorParams):
                        f"{list(self.radial_pitches_mm)}")
         return out
 
+    def _joint(self) -> list[str]:
+        out = []
+        for key, value in self.joint_correlation.items():
+            names = key.split(":")
+            if len(names) != 2 or names[0] == names[1] or any(
+                    n not in JOINT_DRAWS for n in names):
+                out.append(f"joint_correlation: keys are two different draws 'a:b' of "
+                           f"{', '.join(JOINT_DRAWS)}, got {key!r}")
+            elif not -1 < value < 1:
+                out.append(f"joint_correlation: {key} must lie strictly between -1 and 1, got "
+                           f"{value}")
+        if not out and self.joint_correlation and joint_factor(self.joint_correlation) is None:
+            out.append("joint_correlation: these correlations do not fit together (the matrix "
+                       "they make is not positive definite)")
+        return out
+
     def _lengths(self) -> list[str]:
         out = []
         names = [f"power_{n}" for n in _CLASS_LENGTHS] + list(_CLASS_LENGTHS) + [
@@ -229,6 +260,9 @@ class D2RParams(GeneratorParams):
         templates += [fp.passive(s) for s in fp.PASSIVES] + [fp.tssop(8), fp.soic(8)]
         if self.land_pattern_spread:
             templates += [fp.passive(s, fp.PASSIVE_PITCH_RANGES_MM[s][0]) for s in fp.PASSIVES]
+        if self.land_pattern_spread and self.land_pattern_library:
+            templates += [fp.passive(s, min(fp.PASSIVE_LIBRARY_PITCHES_MM[s]))
+                          for s in fp.PASSIVES]
         if self.package_variety:
             templates += fp.variant_templates()
         templates += [fp.sot23(), fp.pin_header(2, 2), fp.jst_ph(2), fp.jst_sh(2),
@@ -274,3 +308,33 @@ def _coerce(key: str, value, annotation: str, where: str):
             raise bad("a table {key = probability, ...}")
         return {str(k): number(v) for k, v in value.items()}
     raise AssertionError(f"no coercion for {annotation}")  # pragma: no cover
+
+
+def joint_matrix(correlation: dict[str, float]) -> list[list[float]]:
+    """The correlation matrix over `JOINT_DRAWS` that `joint_correlation` gives (pairs not
+    named: 0)."""
+    index = {name: i for i, name in enumerate(JOINT_DRAWS)}
+    matrix = [[1.0 if i == j else 0.0 for j in range(len(JOINT_DRAWS))]
+              for i in range(len(JOINT_DRAWS))]
+    for key, value in correlation.items():
+        a, b = (index[n] for n in key.split(":"))
+        matrix[a][b] = matrix[b][a] = float(value)
+    return matrix
+
+
+def joint_factor(correlation: dict[str, float]) -> list[list[float]] | None:
+    """The lower Cholesky factor of `joint_matrix` in plain floats (the same on every machine),
+    or None when the matrix is not positive definite."""
+    matrix = joint_matrix(correlation)
+    size = len(matrix)
+    factor = [[0.0] * size for _ in range(size)]
+    for i in range(size):
+        for j in range(i + 1):
+            rest = matrix[i][j] - math.fsum(factor[i][k] * factor[j][k] for k in range(j))
+            if i == j:
+                if rest <= 1e-9:
+                    return None
+                factor[i][i] = math.sqrt(rest)
+            else:
+                factor[i][j] = rest / factor[j][j]
+    return factor
