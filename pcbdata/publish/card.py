@@ -402,7 +402,7 @@ _LIMITATIONS_SECTION = [
     "half 0.54-0.58); the boards' net shapes (the share of a board's pads on its largest "
     "net) remain further from the tiers than the seven statistics. The negotiated agent "
     "completes about as many level boards as tier boards at seed 0 (64 boards each; a: 98.4 "
-    "against 98.4 %, b: 90.6 against 89.1 %, c: 62.5-64.1 against 62.5 %) (docs/realism.md).",
+    "against 98.4 %, b: 90.6 against 89.1 %, c: 70.3 against 62.5 %) (docs/realism.md).",
     "- D3 boards are real designs but their rules come from KiCad's migration of older "
     "files plus a compatibility pass that relaxes a few checks; some designs' intended "
     "constraints (differential pairs, length matching, zones refilled after routing) "
