@@ -80,7 +80,7 @@ class _Draws:
         """Whether the board is among a `fraction` of boards: the joint draw in its top
         `fraction` (a higher draw, more likely), else the stream's draw below `fraction`."""
         if name in self.joint:
-            return self.uniform(name) >= 1.0 - fraction
+            return 1.0 - self.uniform(name) < fraction
         return self.stream.random() < fraction
 
     def uniform(self, name: str) -> float:

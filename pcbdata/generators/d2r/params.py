@@ -199,12 +199,17 @@ class D2RParams(GeneratorParams):
 
     def _joint(self) -> list[str]:
         out = []
+        pairs: dict[frozenset[str], str] = {}
         for key, value in self.joint_correlation.items():
             names = key.split(":")
             if len(names) != 2 or names[0] == names[1] or any(
                     n not in JOINT_DRAWS for n in names):
                 out.append(f"joint_correlation: keys are two different draws 'a:b' of "
                            f"{', '.join(JOINT_DRAWS)}, got {key!r}")
+                continue
+            first = pairs.setdefault(frozenset(names), key)
+            if first != key:
+                out.append(f"joint_correlation: {first!r} and {key!r} name the same pair")
             elif not -1 < value < 1:
                 out.append(f"joint_correlation: {key} must lie strictly between -1 and 1, got "
                            f"{value}")
@@ -305,7 +310,7 @@ def _coerce(key: str, value, annotation: str, where: str):
         return tuple(number(v, integer) for v in items(value, length))
     if annotation == "dict[str, float]":
         if not isinstance(value, dict):
-            raise bad("a table {key = probability, ...}")
+            raise bad("a table {key = number, ...}")
         return {str(k): number(v) for k, v in value.items()}
     raise AssertionError(f"no coercion for {annotation}")  # pragma: no cover
 
