@@ -6,16 +6,20 @@ It reads the board once, at its first step, through the environment's read-only 
 (`RoutingEnv.board_view`, handed over by the runner through `attach`); every piece of copper
 reaches KiCad through actions, in pcbdata's free-coordinate form: per run of wires of one net
 that begin where the one before ended (`chains`) `net_select`, `start_route` at the first
-wire's first pad centre (with its layer), `make_line` to each corner and `make_via` at each via
-in `mark_obstacles` mode (the line exactly as planned: the planner kept the clearance), and
-`net_end`; a run whose net the observation shows joined already is left out. A run whose
-step the environment refuses is abandoned at that step (`net_end` takes up what it left
-dangling) and the agent goes on with the next one. The
-plan is deterministic (counted work), so every rollout of a board is the same episode.
+wire's first pad centre (with its layer), `make_line` to each corner (one step where two
+segments are the straight-then-45-degrees line `mark_obstacles` lays, `line_ends`) and
+`make_via` at each via in `mark_obstacles` mode (the line exactly as planned: the planner kept
+the clearance), and `net_end`; a run whose net the observation shows joined already is left
+out. A via where one of the net stands already is not laid twice: the run ends on that via and
+starts again from it on the via's other layer. A run whose step the environment refuses is
+abandoned at that step (`net_end` takes up what it left dangling) and the agent goes on with
+the next one. The plan is deterministic (counted work), so a board and a seed always give the
+same episode.
 """
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import cast
 
 from pcbdata.env.types import (
     MAKE_LINE,
@@ -27,7 +31,9 @@ from pcbdata.env.types import (
     BoardView,
 )
 from pcbdata.router.connections import End, seeded_order, spanning_connections
+from pcbdata.router.geometry import BoardGeometry
 from pcbdata.router.negotiate import BUDGET_ROUTES, CAUSES, Negotiator, NetRule, Plan, Wire
+from pcbdata.router.requests import mark_obstacles_path
 
 
 def _mm(point) -> tuple[float, float]:
@@ -73,12 +79,27 @@ def wire_actions(view: BoardView, wire: Wire, then: tuple[Wire, ...] = ()) -> li
     return out
 
 
+def line_ends(path) -> list:
+    """The points `make_line` goes to, in order, to lay `path` from its first point: each
+    corner, but where the next two segments are the straight-then-45-degrees line that
+    `mark_obstacles` lays from the current point to the one after, one step to that point
+    (the same copper, one copper-changing step fewer)."""
+    ends, here, i = [], tuple(path[0]), 1
+    while i < len(path):
+        if i + 1 < len(path) and mark_obstacles_path(here, tuple(path[i + 1])) == (
+                here, tuple(path[i]), tuple(path[i + 1])):
+            i += 1
+        ends.append(tuple(path[i]))
+        here = ends[-1]
+        i += 1
+    return ends
+
+
 def _drawing(wire: Wire, layer: dict[str, int]) -> list[dict]:
     out = []
     for i, (_, path) in enumerate(wire.legs):
-        corners = list(path[1:])
         via = i < len(wire.vias)
-        for point in corners[:-1] if via else corners:
+        for point in line_ends(path[:-1] if via else path):
             px, py = _mm(point)
             out.append({"type": MAKE_LINE, "x": px, "y": py, "mode": MARK_OBSTACLES})
         if via:
@@ -144,17 +165,29 @@ class NegotiatedAgent:
         self._planned = False
         self.plan: Plan | None = None
         self.done = False
-        self.refused_wires = self.skipped_wires = 0
+        self.refused_wires = self.skipped_wires = self.reused_vias = 0
+        self._reset_tracking()
+
+    def _reset_tracking(self) -> None:
+        self._vias: set[tuple[int, tuple[int, int]]] = set()  # (net index, nm) of laid vias
+        self._net: int | None = None
+        self._head: tuple[int, int] | None = None
+        self._sent_via: tuple[int, tuple[int, int]] | None = None
 
     def attach(self, env) -> None:
         """The runner hands over the environment (its `board_view` only is read)."""
         self._view = env.board_view
         self._queue, self._current, self._planned, self.done = [], [], False, False
-        self.refused_wires = self.skipped_wires = 0
+        self.refused_wires = self.skipped_wires = self.reused_vias = 0
+        self._reset_tracking()
 
     def act(self, obs, info) -> dict:
         if not self._planned:
             self._make_plan()
+        if self._sent_via is not None:  # the last step laid a via unless it was refused
+            if not self._refused(info):
+                self._vias.add(self._sent_via)
+            self._sent_via = None
         if self._current and self._refused(info):
             self.refused_wires += 1
             self._current = [{"type": NET_END}] if info.get("phase") != "no_net" else []
@@ -167,17 +200,42 @@ class NegotiatedAgent:
                 self._current = wire
             else:  # joined already through other copper: laying it would only add copper
                 self.skipped_wires += 1
-        return self._current.pop(0)
+        return self._followed(self._current.pop(0))
+
+    def _followed(self, action: dict) -> dict:
+        """`action`, after noting the net it selects and the point it moves the head to; a
+        `make_via` where a via of the net stands already (two wires of a net changing layer at
+        one point, or the board's own via) becomes a line to that via and a new start on it at
+        the via's other layer: a second via there would be a co-located hole."""
+        kind = action["type"]
+        if kind == NET_SELECT:
+            self._net = int(action["net"])
+        if kind not in (START_ROUTE, MAKE_LINE, MAKE_VIA):
+            return action
+        point = (int(round(action["x"] * 1e6)), int(round(action["y"] * 1e6)))
+        if kind == MAKE_VIA and self._net is not None:
+            if (self._net, point) in self._vias:
+                self.reused_vias += 1
+                xy = {"x": action["x"], "y": action["y"]}
+                steps: list[dict] = [{"type": NET_END}, {"type": NET_SELECT, "net": self._net},
+                                     {"type": START_ROUTE, **xy, "layer": action["layer"]}]
+                if self._head != point:
+                    steps.insert(0, {"type": MAKE_LINE, **xy, "mode": MARK_OBSTACLES})
+                self._current[:0] = steps
+                return self._followed(self._current.pop(0))
+            self._sent_via = (self._net, point)
+        self._head = point
+        return action
 
     def report(self) -> dict:
         """The plan's counts for the rollout's JSON: connections, the open ones by cause
-        (`negotiate.CAUSES`), route calls, rip-ups, rounds, wires the environment refused and
-        wires left out because their net was joined already."""
+        (`negotiate.CAUSES`), route calls, rip-ups, rounds, wires the environment refused,
+        wires left out because their net was joined already and vias laid once for two wires."""
         if self.plan is None:
             return {}
         causes = {c: sum(1 for v in self.plan.open.values() if v == c) for c in CAUSES}
         return {**self.plan.stats, "open": causes, "refused_wires": self.refused_wires,
-                "skipped_wires": self.skipped_wires}
+                "skipped_wires": self.skipped_wires, "reused_vias": self.reused_vias}
 
     @staticmethod
     def _refused(info) -> bool:
@@ -188,6 +246,10 @@ class NegotiatedAgent:
         if self._view is None:
             raise RuntimeError("NegotiatedAgent needs the environment: call attach(env) first")
         view = self._view()
+        named = {n.name for n in view.static.nets if n.name}
+        self._vias = {(view.static.net_index(item.net), item.start)
+                      for item in cast(BoardGeometry, view.geometry).copper
+                      if item.kind == "via" and item.net in named and item.start is not None}
         self.plan, _ = plan_board(view, self.budget_routes, self.seed)
         wires = [w for _, w in sorted(self.plan.wires.items())]
         self._queue = [wire_actions(view, run[0], run[1:]) for run in chains(wires)]

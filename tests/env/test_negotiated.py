@@ -2,6 +2,9 @@
 copper judged by KiCad: complete and clean where rip-ups are needed, and deterministic."""
 from __future__ import annotations
 
+import re
+from collections import Counter
+
 import numpy as np
 import pytest
 
@@ -110,6 +113,12 @@ def test_rip_ups_complete_a_real_board_clean_and_deterministically(d3_set, tmp_p
     assert _open_without_rip_ups(d3_set, board_id) > 0  # the rip-ups made the difference
     assert first == second and again["steps"] == record["steps"]
     assert again["reward"] == record["reward"]
+    # Two of its planned wires change layer at one point of a net: that via is laid once
+    # (a second would be a co-located hole, a warning the strict count counts).
+    planned = Counter((w.net, v) for w in plan.wires.values() for v in w.vias)
+    assert max(planned.values()) >= 2 and record["agent_report"]["reused_vias"] >= 1
+    vias = re.findall(r"\(via\s*\(at ([^)]*)\)", first.decode())
+    assert vias and len(vias) == len(set(vias)) == len(planned)
 
 
 @pytest.mark.slow
@@ -198,3 +207,40 @@ def test_compiled_and_reference_clearance_give_the_same_plan(d3_set, monkeypatch
     assert compiled.stats["rips"] >= 1
     assert compiled.wires == reference.wires and compiled.open == reference.open
     assert compiled.stats == reference.stats
+
+
+def test_line_ends_join_a_straight_then_diagonal_pair_into_one_line():
+    """`make_line` in mark_obstacles mode lays straight-then-45-degrees to a point, so the
+    agent sends one step where the plan's next two segments are that line, and a step per
+    corner elsewhere (a diagonal-then-straight pair, three segments)."""
+    from pcbdata.agents.negotiated import line_ends
+
+    straight_then_diagonal = [(0, 0), (5, 0), (8, 3)]
+    assert line_ends(straight_then_diagonal) == [(8, 3)]
+    diagonal_then_straight = [(0, 0), (3, 3), (8, 3)]
+    assert line_ends(diagonal_then_straight) == [(3, 3), (8, 3)]
+    three = [(0, 0), (5, 0), (8, 3), (8, 9), (10, 11)]
+    assert line_ends(three) == [(8, 3), (10, 11)]
+    assert line_ends([(0, 0), (4, 4)]) == [(4, 4)] and line_ends([(1, 1)]) == []
+
+
+def _segments(text: str) -> list[tuple]:
+    found = re.findall(r"\(segment\s*\(start ([^)]*)\)\s*\(end ([^)]*)\)\s*\(width ([^)]*)\)"
+                       r"\s*\(layer \"([^\"]*)\"\)\s*\(net (\d+)\)", text)
+    return sorted((min(s, e), max(s, e), w, layer, net) for s, e, w, layer, net in found)
+
+
+@pytest.mark.slow
+def test_joined_lines_lay_the_same_copper_in_fewer_steps(d3_set, tmp_path, monkeypatch):
+    """The plan laid with joined straight-then-diagonal lines gives KiCad the same tracks as
+    the plan laid corner by corner, in fewer copper-changing steps."""
+    import pcbdata.agents.negotiated as negotiated
+
+    board_id = _board_id(d3_set, RIPPED)
+    joined, _, first = _episode(d3_set, board_id, tmp_path, "joined")
+    monkeypatch.setattr(negotiated, "line_ends", lambda path: [tuple(p) for p in path[1:]])
+    cornered, _, second = _episode(d3_set, board_id, tmp_path, "cornered")
+    assert joined["steps"] < cornered["steps"]
+    assert (joined["unconnected"], joined["drv"]) == (cornered["unconnected"], cornered["drv"])
+    tracks = _segments(first.decode())
+    assert tracks and tracks == _segments(second.decode())
