@@ -99,7 +99,10 @@ def _drawing(wire: Wire, layer: dict[str, int]) -> list[dict]:
     out = []
     for i, (_, path) in enumerate(wire.legs):
         via = i < len(wire.vias)
-        for point in line_ends(path[:-1] if via else path):
+        ends = line_ends(path)
+        if via and ends:  # `make_via` lays the line to the via's point itself
+            ends.pop()
+        for point in ends:
             px, py = _mm(point)
             out.append({"type": MAKE_LINE, "x": px, "y": py, "mode": MARK_OBSTACLES})
         if via:
