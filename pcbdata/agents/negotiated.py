@@ -40,6 +40,11 @@ def _mm(point) -> tuple[float, float]:
     return point[0] / 1e6, point[1] / 1e6
 
 
+def _nm(action: dict) -> tuple[int, int]:
+    """An action's point back in nm, as the environment reads it."""
+    return int(round(action["x"] * 1e6)), int(round(action["y"] * 1e6))
+
+
 def plan_board(view: BoardView, budget_routes: int = BUDGET_ROUTES, seed: int = 0,
                **options) -> tuple[Plan, list]:
     """The negotiated plan of a board's open connections and those connections, as planned
@@ -215,7 +220,7 @@ class NegotiatedAgent:
             self._net = int(action["net"])
         if kind not in (START_ROUTE, MAKE_LINE, MAKE_VIA):
             return action
-        point = (int(round(action["x"] * 1e6)), int(round(action["y"] * 1e6)))
+        point = _nm(action)
         if kind == MAKE_VIA and self._net is not None:
             if (self._net, point) in self._vias:
                 self.reused_vias += 1

@@ -2,7 +2,6 @@
 copper judged by KiCad: complete and clean where rip-ups are needed, and deterministic."""
 from __future__ import annotations
 
-import re
 from collections import Counter
 
 import numpy as np
@@ -33,7 +32,9 @@ def _episode(d3_set, board_id: str, tmp_path, name: str):
         record = run_episode(env, agent, board_id, 0)
         saved = tmp_path / f"{name}.kicad_pcb"
         env.unwrapped.save(saved)
-        return record, agent.plan, saved.read_bytes()
+        laid = [item for item in env.unwrapped.board_view().geometry.copper
+                if item.kind in ("track", "via")]
+        return record, agent.plan, saved.read_bytes(), laid
     finally:
         env.close()
 
@@ -106,10 +107,10 @@ def test_negotiated_search_frees_what_a_plain_plan_leaves_open(d3_set):
 @pytest.mark.slow
 def test_rip_ups_complete_a_real_board_clean_and_deterministically(d3_set, tmp_path):
     board_id = _board_id(d3_set, RIPPED)
-    record, plan, first = _episode(d3_set, board_id, tmp_path, "one")
+    record, plan, first, laid = _episode(d3_set, board_id, tmp_path, "one")
     assert plan.stats["rips"] >= 1 and plan.open == {}
     assert (record["unconnected"], record["drv"], record["engine_failure"]) == (0, 0, None)
-    again, _, second = _episode(d3_set, board_id, tmp_path, "two")
+    again, _, second, _ = _episode(d3_set, board_id, tmp_path, "two")
     assert _open_without_rip_ups(d3_set, board_id) > 0  # the rip-ups made the difference
     assert first == second and again["steps"] == record["steps"]
     assert again["reward"] == record["reward"]
@@ -117,7 +118,7 @@ def test_rip_ups_complete_a_real_board_clean_and_deterministically(d3_set, tmp_p
     # (a second would be a co-located hole, a warning the strict count counts).
     planned = Counter((w.net, v) for w in plan.wires.values() for v in w.vias)
     assert max(planned.values()) >= 2 and record["agent_report"]["reused_vias"] >= 1
-    vias = re.findall(r"\(via\s*\(at ([^)]*)\)", first.decode())
+    vias = [(item.net, item.start) for item in laid if item.kind == "via"]
     assert vias and len(vias) == len(set(vias)) == len(planned)
 
 
@@ -224,10 +225,9 @@ def test_line_ends_join_a_straight_then_diagonal_pair_into_one_line():
     assert line_ends([(0, 0), (4, 4)]) == [(4, 4)] and line_ends([(1, 1)]) == []
 
 
-def _segments(text: str) -> list[tuple]:
-    found = re.findall(r"\(segment\s*\(start ([^)]*)\)\s*\(end ([^)]*)\)\s*\(width ([^)]*)\)"
-                       r"\s*\(layer \"([^\"]*)\"\)\s*\(net (\d+)\)", text)
-    return sorted((min(s, e), max(s, e), w, layer, net) for s, e, w, layer, net in found)
+def _tracks(laid) -> list[tuple]:
+    return sorted((item.net, item.layers, min(item.start, item.end), max(item.start, item.end),
+                   item.width) for item in laid if item.kind == "track")
 
 
 @pytest.mark.slow
@@ -237,10 +237,10 @@ def test_joined_lines_lay_the_same_copper_in_fewer_steps(d3_set, tmp_path, monke
     import pcbdata.agents.negotiated as negotiated
 
     board_id = _board_id(d3_set, RIPPED)
-    joined, _, first = _episode(d3_set, board_id, tmp_path, "joined")
+    joined, _, _, first = _episode(d3_set, board_id, tmp_path, "joined")
     monkeypatch.setattr(negotiated, "line_ends", lambda path: [tuple(p) for p in path[1:]])
-    cornered, _, second = _episode(d3_set, board_id, tmp_path, "cornered")
+    cornered, _, _, second = _episode(d3_set, board_id, tmp_path, "cornered")
     assert joined["steps"] < cornered["steps"]
     assert (joined["unconnected"], joined["drv"]) == (cornered["unconnected"], cornered["drv"])
-    tracks = _segments(first.decode())
-    assert tracks and tracks == _segments(second.decode())
+    tracks = _tracks(first)
+    assert tracks and tracks == _tracks(second)
