@@ -201,11 +201,15 @@ class Negotiator:
         return Plan(dict(wires), dict(open_), {"rips": sum(self.rips)})
 
     def _cause(self, index: int, cause: str) -> str:
-        """The cause of an open connection: `boxed_in` where even the board without planned
-        copper has no way for it (a repeated request costs nothing: the router remembers)."""
-        if cause == "budget" or self._spent():
+        """The cause of an open connection once the rounds are over: `budget` only where the
+        plan's budget ran out (the best state may be one that a round had not yet tried
+        every connection in and then went on from: such a connection is open for the
+        others' copper); otherwise `boxed_in` where even the board without planned copper
+        has no way for it (a repeated request costs nothing: the router remembers), else
+        `congestion`."""
+        if self._spent():
             return cause
-        return "boxed_in" if self._way(self.bare, index) is None else cause
+        return "boxed_in" if self._way(self.bare, index) is None else "congestion"
 
     def _keep_best(self, best, failed):
         """The best state so far: fewest open connections, then least wire; a later state as

@@ -141,3 +141,13 @@ def test_seeded_orders_differ_and_repeat():
     orders = {tuple(c.net for c in seeded_order(conns, s)) for s in range(1, 30)}
     assert len(orders) > 1
     assert seeded_order(conns, 7) == seeded_order(list(reversed(conns)), 7)
+
+
+def test_budget_is_the_cause_only_where_the_budget_ran_out():
+    """A connection the best state had not tried yet is open for want of budget only if the
+    plan's budget is spent; otherwise the others' copper (or its own pins) kept it open."""
+    board, connections, rules = gates_board()
+    plan = Negotiator(board, LAYERS, rules, connections, restarts=0)
+    assert plan._cause(1, "budget") == "congestion"  # B has a way on the bare board
+    spent = Negotiator(board, LAYERS, rules, connections, restarts=0, budget_routes=0)
+    assert spent._cause(1, "budget") == "budget"
