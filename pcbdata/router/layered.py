@@ -5,7 +5,8 @@ the request's track (`pcbdata.router.search`) and the via candidates; a via cand
 node per layer, and a move between two of them (same point, another layer) is a via. Via
 candidates are the corners of the keep-outs for a dot of the via's diameter on every layer
 and rings of spots around both ends, those where a via fits (`WalkaroundRouter.vias_fit`: every
-layer, the edge, the net's own drilled copper). Links on a layer are the walkaround search's
+layer, the edge, the net's own drilled copper) and off the request's `holes` (drilled copper of
+the net that the router's board lacks). Links on a layer are the walkaround search's
 (straight or one-bend octilinear, checked exactly, screened by ray bounds), so every leg keeps
 clearance by construction, and every via fits where it stands.
 
@@ -53,6 +54,10 @@ class LayeredRequest:
     layers: tuple[str, ...]  # the layers the search may use (a via spans all of them)
     reach: tuple[int, int] = (0, 0)  # how far the ends' copper reaches (for via rings)
     via_cost: int = VIA_COST
+    #: Drilled copper of the request's net that the router's board lacks, (point, diameter):
+    #: no via spot overlaps one (KiCad's hole_to_hole; a spot on its very point is the same
+    #: via, reused).
+    holes: tuple[tuple[Point, int], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -64,7 +69,25 @@ class LayeredResult:
 
 
 def via_candidates(router, req: LayeredRequest) -> np.ndarray:
-    """(n, 2) int64 via spots that fit for this request, sorted (remembered per board state)."""
+    """(n, 2) int64 via spots that fit for this request, sorted (remembered per board state),
+    none over the request's `holes`."""
+    points = _fitting_spots(router, req)
+    if len(points) and req.holes:
+        points = points[~over_holes(points, req.holes, req.via_diameter)]
+    return points
+
+
+def kept_off(router, req: LayeredRequest) -> tuple[Point, ...]:
+    """The via spots that fit the board but that the request's `holes` keep the search off
+    (what the holes change of the search: none, and it is the search without them)."""
+    if not req.holes:
+        return ()
+    points = _fitting_spots(router, req)
+    off = points[over_holes(points, req.holes, req.via_diameter)] if len(points) else points
+    return tuple((int(x), int(y)) for x, y in off)
+
+
+def _fitting_spots(router, req: LayeredRequest) -> np.ndarray:
     key = (tuple(router._layer_key(lay) for lay in req.layers), req.net, req.via_diameter,
            req.clearance, req.start, req.goal, req.reach)
     memory = router._shared.vias
@@ -85,6 +108,15 @@ def via_candidates(router, req: LayeredRequest) -> np.ndarray:
                                         req.layers)]
     router._shared.remember(memory, key, points)
     return points
+
+
+def over_holes(points: np.ndarray, holes, diameter: int) -> np.ndarray:
+    """Per point, whether a via of `diameter` there overlaps one of `holes` ((point,
+    diameter) pairs) without standing on its very point."""
+    at = np.array([h[0] for h in holes], dtype=float)
+    reach = np.array([h[1] for h in holes], dtype=float) / 2 + diameter / 2
+    gap = np.hypot(points[:, None, 0] - at[None, :, 0], points[:, None, 1] - at[None, :, 1])
+    return ((gap > 0) & (gap < reach[None, :])).any(axis=1)
 
 
 def _dot_corners(router, req: LayeredRequest, layer: str) -> np.ndarray:

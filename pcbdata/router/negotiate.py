@@ -11,9 +11,11 @@ A connection that finds no way is searched again, by the layered search, on the 
 the other connections' planned copper that may still be ripped up, that copper being *soft*:
 a way may cross it at a price (`rip_price` nm of track per crossed connection, once more for
 each time that connection was ripped up before; `pcbdata.router.soft`). If no priced way is
-found, a way that ignores the soft copper is taken. The connections whose planned copper the
-way passes too close to are ripped up (exact distances), the connection takes its way and the
-ripped ones are queued again ahead of the rest; a connection is ripped at most `max_rips`
+found, a way that ignores the soft copper is taken. Either way its via spots keep off the
+net's own planned vias (that board lacks them; a via over one would be two overlapping holes,
+KiCad's hole_to_hole). The connections whose planned copper the way passes too close to are
+ripped up (exact distances), the connection takes its way and the ripped ones are queued
+again ahead of the rest; a connection is ripped at most `max_rips`
 times (then it is hard copper, never crossed again), so the loop ends. A connection with no
 way even on the board without planned copper is *boxed in*; one that has a way there but only
 through copper that may not be ripped is *congested*; one that ran out of the budget is
@@ -323,15 +325,23 @@ class Negotiator:
         if self._spent():
             return None
         self.calls += 1
+        holes = self._own_holes(index) if router is self.fixed_router else ()
         result = router.route_layers(LayeredRequest(
             net=c.net, start=c.a.at, start_layers=c.a.layers, goal=c.b.at,
             goal_layers=c.b.layers, width=rule.width, clearance=rule.clearance,
             via_diameter=rule.via_diameter, layers=self.layers, reach=(c.a.reach, c.b.reach),
-            via_cost=self.via_cost), soft)
+            via_cost=self.via_cost, holes=holes), soft)
         if result.legs is None:
             return None
         return Wire(c.net, result.legs, result.vias)
 
+    def _own_holes(self, index: int) -> tuple[tuple[Point, int], ...]:
+        """The planned vias of the connection's net (the rip-up search's board has only those
+        that may not be ripped up): its via spots keep off them."""
+        net = self.connections[index].net
+        diameter = self.rules[net].via_diameter
+        return tuple(sorted({(v, diameter) for k, wire in self.wires.items()
+                             if wire.net == net for v in wire.vias}))
 
     def _leg(self, router, net, layer, a: Point, b: Point, rule: NetRule):
         if a == b:

@@ -63,7 +63,7 @@ from pcbdata.router.geometry import (
     item_sort_key,
     one_bend_paths,
 )
-from pcbdata.router.layered import LayeredRequest, LayeredResult, route_layers
+from pcbdata.router.layered import LayeredRequest, LayeredResult, kept_off, route_layers
 from pcbdata.router.requests import RouteRequest, RouteResult
 from pcbdata.router.search import _mm, _Search
 from pcbdata.router.soft import SoftCopper
@@ -214,7 +214,8 @@ class WalkaroundRouter:
             result = route_layers(self, request, soft)
             self._shared.work += int(result.stats.get("checks", 0))
             return result
-        key = (tuple(self._layer_key(lay) for lay in request.layers), request,
+        key = (tuple(self._layer_key(lay) for lay in request.layers),
+               replace(request, holes=()), kept_off(self, request),
                self.budget_nodes, self.budget_checks)
         known = self._shared.routes.get(key)
         if known is not None:

@@ -244,3 +244,24 @@ def test_joined_lines_lay_the_same_copper_in_fewer_steps(d3_set, tmp_path, monke
     assert (joined["unconnected"], joined["drv"]) == (cornered["unconnected"], cornered["drv"])
     tracks = _tracks(first)
     assert tracks and tracks == _tracks(second)
+
+
+def test_the_rip_up_search_keeps_vias_off_its_own_nets_planned_vias(d3_set):
+    """A real board whose rip-up search (on a board without the copper it may rip up, the
+    net's own planned vias among it) put a via over a planned via of its own net, a hole
+    KiCad's hole_to_hole forbids: its via spots keep off them, and the plan stays complete."""
+    import math
+    from itertools import combinations
+
+    from pcbdata.agents.negotiated import plan_board
+
+    view = _view(d3_set, _board_id(d3_set, "ATtiny461Breakout_ATTiny461DevBoard"))
+    plan, connections = plan_board(view, seed=2)
+    assert plan.open == {} and plan.stats["rips"] >= 1
+    diameter = {n.name: n.via_diameter for n in view.static.nets}
+    vias = [(w.net, v) for w in plan.wires.values() for v in w.vias]
+    assert vias
+    for (net, a), (other, b) in combinations(vias, 2):
+        if net == other:
+            assert math.dist(a, b) == 0 or math.dist(a, b) >= diameter[net], (net, a, b)
+    _assert_legal(view, plan, connections)

@@ -119,3 +119,30 @@ def test_soft_copper_is_crossed_at_its_price_or_gone_round():
     dear = router.route_layers(req, SoftCopper((track,), (7,), {7: 100_000_000}))
     assert max(y for _, y in dear.legs[0][1]) > 16 * MM  # the detour costs less
     assert_legal(with_track, dear.legs, dear.vias, req)
+
+
+def test_holes_keep_via_spots_off_drilled_copper_the_board_lacks():
+    """A request's `holes` (its net's drilled copper that the router's board does not hold,
+    as the rip-up search's board lacks the net's planned vias) keep every via off them: no
+    via of the way overlaps one, but a via on a hole's very point (the same via) may stand."""
+    import math
+
+    from pcbdata.router.layered import kept_off
+
+    board = walled_board()
+    free = WalkaroundRouter(board).route_layers(request())
+    assert free.legs is not None and len(free.vias) == 2
+    first = free.vias[0]
+    hole = ((first[0] + 300_000, first[1]), 600_000)  # overlaps the way's first via
+    req = request(holes=(hole,))
+    router = WalkaroundRouter(board)
+    assert kept_off(router, req)
+    kept = router.route_layers(req)
+    assert kept.legs is not None and kept.vias != free.vias
+    for via in kept.vias:
+        gap = math.dist(via, hole[0])
+        assert gap == 0 or gap >= (hole[1] + req.via_diameter) / 2
+    assert_legal(board, kept.legs, kept.vias, req)
+    assert kept_off(router, request()) == ()  # no holes: the search as before
+    same = router.route_layers(request(holes=((first, 600_000),)))  # on the via's very point
+    assert first in same.vias
