@@ -124,7 +124,8 @@ def test_soft_copper_is_crossed_at_its_price_or_gone_round():
 def test_holes_keep_via_spots_off_drilled_copper_the_board_lacks():
     """A request's `holes` (its net's drilled copper that the router's board does not hold,
     as the rip-up search's board lacks the net's planned vias) keep every via off them: no
-    via of the way overlaps one, but a via on a hole's very point (the same via) may stand."""
+    via of the way overlaps one, but a via on a hole's very point (the same via) may stand; holes
+    that keep no spot off leave the search as it is, its remembered answer included."""
     import math
 
     from pcbdata.router.layered import kept_off
@@ -144,5 +145,8 @@ def test_holes_keep_via_spots_off_drilled_copper_the_board_lacks():
         assert gap == 0 or gap >= (hole[1] + req.via_diameter) / 2
     assert_legal(board, kept.legs, kept.vias, req)
     assert kept_off(router, request()) == ()  # no holes: the search as before
+    far = request(holes=(((27 * MM, 27 * MM), 600_000),))  # keeps no spot the way could use off
+    assert kept_off(router, far) == ()
+    assert router.route_layers(far) is router.route_layers(request())  # one remembered answer
     same = router.route_layers(request(holes=((first, 600_000),)))  # on the via's very point
     assert first in same.vias
