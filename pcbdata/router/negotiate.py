@@ -340,7 +340,7 @@ class Negotiator:
         that may not be ripped up): its via spots keep off them."""
         net = self.connections[index].net
         diameter = self.rules[net].via_diameter
-        return tuple(sorted({(v, diameter) for k, wire in self.wires.items()
+        return tuple(sorted({(v, diameter) for wire in self.wires.values()
                              if wire.net == net for v in wire.vias}))
 
     def _leg(self, router, net, layer, a: Point, b: Point, rule: NetRule):
