@@ -95,8 +95,13 @@ class _Layer:
         self.support = np.array([p.support for p in prepared], dtype=float).reshape(-1, 8)
         self.inner = np.array([p.inner for p in prepared], dtype=float).reshape(-1, 2)
         self.convex = np.array([p.convex for p in prepared], dtype=bool)
-        self.tree = shapely.STRtree(self.cores)
         self._prepared = prepared
+
+    @cached_property
+    def tree(self) -> shapely.STRtree:
+        """The cores in an R-tree, for the reference clearance test (built when that first
+        runs: the compiled test has its own grid)."""
+        return shapely.STRtree(self.cores)
 
     @cached_property
     def pieces(self) -> tuple[np.ndarray, np.ndarray]:

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pcbdata.router import clearance_kernel
 from pcbdata.router.clearance import HEADINGS
 from pcbdata.router.geometry import Point, simplify_path
 from pcbdata.router.search import (
@@ -29,7 +30,9 @@ from pcbdata.router.search import (
     WINDOW_SHARE,
     _link_segments,
     _octilinear_to,
+    _pick,
     _Search,
+    _targets,
 )
 from pcbdata.router.soft import SoftCopper, SoftLayer
 
@@ -142,6 +145,7 @@ class _LayerGraph(_Search):
 
     def __init__(self, router, rules, points: np.ndarray, reach: float):
         self.router, self.rules, self.clock = router, rules, 0.0
+        self.compiled = clearance_kernel.enabled()
         self.checks = self.expanded = self.screened = self.ruled_out = 0
         self.points = points.astype(float)  # for the ray bounds
         self.nodes, self.rows = points.astype(np.int64), np.arange(len(points))
@@ -234,13 +238,13 @@ class _Layered:
         closed = np.zeros(size, dtype=bool)
         heuristic = np.concatenate([_octilinear_to(gr.nodes, self.req.goal) for gr in graphs])
         goal_nodes = {offsets[k] + 1 for k in self.goals}
+        compiled = clearance_kernel.enabled()
         for k in self.starts:
             g[offsets[k]] = 0.0
         try:
             while True:
-                f = np.where(closed, np.inf, g + heuristic)
-                u = int(np.argmin(f))
-                if not np.isfinite(f[u]):
+                u = _pick(g, heuristic, closed, compiled)
+                if u < 0:
                     return None
                 if self._over_budget():
                     return self._fail("no way within the search budget")
@@ -263,20 +267,21 @@ class _Layered:
     def _expand(self, k: int, graph: _LayerGraph, offset: int, i: int, g, parent,
                 closed) -> None:
         span = slice(offset, offset + len(graph.nodes))
-        cost = g[offset + i] + _octilinear_to(graph.nodes, tuple(graph.nodes[i]))
-        targets = np.flatnonzero(~closed[span] & (cost < g[span]))
+        targets, cost = _targets(graph.nodes, i, g[span], closed[span], graph.compiled)
         if len(targets) > LINKS:  # the nearest, and the goal: far links are mostly blocked
-            near = targets[np.lexsort((targets, cost[targets]))[:LINKS]]
-            if 1 in targets[:2] and 1 not in near:  # the goal (targets are sorted)
-                near = np.append(near, 1)
-            targets = np.sort(near)
+            near = np.lexsort((targets, cost))[:LINKS]
+            if 1 in targets[:2] and 1 not in targets[near]:  # the goal (targets are sorted)
+                near = np.append(near, 0 if targets[0] == 1 else 1)
+            near = np.sort(near)  # targets are sorted: positions in order are targets in order
+            targets, cost = targets[near], cost[near]
         if not len(targets):
             return
         before = graph.checks
-        reached = targets[graph._links_clear(i, targets)]
+        clear = graph._links_clear(i, targets)
+        reached = targets[clear]
         self.checks += graph.checks - before
         graph.checks = before
-        new = cost[reached]
+        new = cost[clear]
         if self.soft and not self.soft[k].empty:
             new = new + self._link_prices(k, graph, i, reached)[0]
             better = new < g[offset + reached]

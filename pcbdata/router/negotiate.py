@@ -19,8 +19,12 @@ again ahead of the rest; a connection is ripped at most `max_rips`
 times (then it is hard copper, never crossed again), so the loop ends. A connection with no
 way even on the board without planned copper is *boxed in*; one that has a way there but only
 through copper that may not be ripped is *congested*; one that ran out of the budget is
-*budget*. Later rounds put the connections left open first; the best state seen (most
-connections routed, then least wire) is the plan. Work is counted in route calls
+*budget*. Later rounds start again from a clean board: the next two put the connections the
+best round left open first; after those, while the plan has budget left and an open
+connection that is not boxed in, each round takes the connections hardest first, by their
+history (rip-ups and times left open, summed over every round so far), and the rounds stop
+when that order repeats one already tried. The best state seen (most connections routed, then
+least wire) is the plan. Work is counted in route calls
 (`budget_routes`), each search's expansions and link checks, and the link checks of all the
 plan's searches together (`budget_work`), never timed: the same board gives the same plan on
 any machine.
@@ -56,8 +60,9 @@ from pcbdata.router.walkaround import WalkaroundRouter
 BUDGET_ROUTES = 3000
 #: Link checks the searches of a plan may make in all (the routers' counted work, answers
 #: remembered from earlier searches free); the plan stops where either budget runs out. The
-#: completed D3-B and D3-C test picks need at most 9.2 million at seed 0.
-BUDGET_WORK = 40_000_000
+#: completed D3-B and D3-C test picks need at most 9.2 million at seed 0, some real tier C
+#: boards 41-64 million.
+BUDGET_WORK = 80_000_000
 MAX_RIPS = 3
 #: What crossing a planned connection costs the rip-up search, in nm of track (once more for
 #: every time that connection was ripped up before).
@@ -72,8 +77,11 @@ RING_STEPS = (1.0, 1.5, 2.2)
 #: GUIDE_TRIES of them tried.
 GUIDE_STEP = 250_000
 GUIDE_TRIES = 6
-#: Rounds after the first, each with the connections left open placed first.
-RESTARTS = 2
+#: Rounds after the first: the first OPEN_FIRST of them with the connections left open placed
+#: first, the others hardest first by history (rip-ups, and OPEN_WEIGHT per round left open).
+RESTARTS = 8
+OPEN_FIRST = 2
+OPEN_WEIGHT = 2
 CAUSES = ("boxed_in", "congestion", "budget")
 #: Grid step (nm) of access points inside a pad whose centre a track cannot start at.
 ACCESS_STEP = 50_000
@@ -138,6 +146,7 @@ class Negotiator:
         self.router = self.bare.with_board(board)  # with all of it
         self.fixed_router = self.bare.with_board(board)  # with what may not be ripped up
         self.calls = 0
+        self._boxed_in: dict[int, bool] = {}
         self._reset()
 
     def _reset(self) -> None:
@@ -149,22 +158,34 @@ class Negotiator:
     # --- the loop ---
 
     def run(self) -> Plan:
-        """Rounds of the negotiation: the first in the connections' order, each later one
-        with the connections the best round left open first (their history), from a clean
-        board; the best round is the plan."""
+        """Rounds of the negotiation, each from a clean board: the first in the connections'
+        order; the next `OPEN_FIRST` with the connections the best round left open first;
+        then, while an open connection is not boxed in and the budget lasts, hardest first
+        by history (`_by_history`) until an order repeats. The best round is the plan."""
         order = list(range(len(self.connections)))
+        history = [0] * len(self.connections)
+        tried: set[tuple[int, ...]] = set()
         best: Plan | None = None
         rounds = 0
-        for _ in range(1 + self.restarts):
+        while True:
+            tried.add(tuple(order))
             plan = self._round(order)
             rounds += 1
+            for i in range(len(self.connections)):
+                history[i] += self.rips[i] + (OPEN_WEIGHT if i in plan.open else 0)
             if best is None or _rank(plan) < _rank(best):
                 best = plan
-            if not best.open or self._spent():
+            if not best.open or self._spent() or rounds > self.restarts:
                 break
-            first = sorted(best.open, key=lambda i: (self.connections[i].length, i))
-            order = first + [i for i in order if i not in best.open]
-        assert best is not None
+            if rounds <= OPEN_FIRST:
+                first = sorted(best.open, key=lambda i: (self.connections[i].length, i))
+                order = first + [i for i in order if i not in best.open]
+                continue
+            if all(self._boxed(i) for i in best.open) or self._spent():
+                break
+            order = _by_history(history)
+            if tuple(order) in tried:
+                break
         best.open = {i: self._cause(i, c) for i, c in sorted(best.open.items())}
         best.stats = {**best.stats, "route_calls": self.calls, "work": self.work,
                       "rounds": rounds,
@@ -211,7 +232,17 @@ class Negotiator:
         `congestion`."""
         if self._spent():
             return cause
-        return "boxed_in" if self._way(self.bare, index) is None else "congestion"
+        return "boxed_in" if self._boxed(index) else "congestion"
+
+    def _boxed(self, index: int) -> bool:
+        """Whether the board without planned copper has no way for connection `index`
+        (asked once: that board never changes)."""
+        if index not in self._boxed_in:
+            boxed = self._way(self.bare, index) is None
+            if self._spent():  # no answer, for want of budget
+                return boxed
+            self._boxed_in[index] = boxed
+        return self._boxed_in[index]
 
     def _keep_best(self, best, failed):
         """The best state so far: fewest open connections, then least wire; a later state as
@@ -395,6 +426,11 @@ def _access_point(router, rule: NetRule, net: str, end: End):
         return int(grid[k, 0]), int(grid[k, 1]), tuple(lay for lay in end.layers
                                                        if fits[lay][k])
     return None
+
+
+def _by_history(history: list[int]) -> list[int]:
+    """The connections hardest first: most history first, ties in the connections' order."""
+    return sorted(range(len(history)), key=lambda i: (-history[i], i))
 
 
 def _rank(plan: Plan) -> tuple:

@@ -15,6 +15,8 @@ a bound).
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 import shapely
 
@@ -61,14 +63,19 @@ class CapsuleScreen:
         self.table = np.column_stack([start, radius, span, along])
         low = np.minimum(start, end) - radius[:, None]
         high = np.maximum(start, end) + radius[:, None]
-        # Queried by the rays' bounding boxes: an exact predicate costs more than the
-        # closed-form test that follows.
-        self.tree = shapely.STRtree(shapely.box(low[:, 0], low[:, 1], high[:, 0], high[:, 1]))
         self._low, self._high = low, high
         self._grid: CapsuleGrid | None = None
 
     def __len__(self) -> int:
         return len(self.table)
+
+    @cached_property
+    def tree(self) -> shapely.STRtree:
+        """The capsules' boxes in an R-tree, queried by the rays' boxes in the reference form
+        (an exact predicate costs more than the closed-form test that follows); built when
+        that form first runs."""
+        low, high = self._low, self._high
+        return shapely.STRtree(shapely.box(low[:, 0], low[:, 1], high[:, 0], high[:, 1]))
 
     def entries(self, points: np.ndarray, directions: np.ndarray, length: float) -> np.ndarray:
         """Per ray (point, unit direction), the distance along it to the first capsule it

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from pcbdata.router import clearance_kernel, search_kernel
 from pcbdata.router.clearance import _HEADING_INDEX, _ROOT2, _Rules, _segments
 from pcbdata.router.geometry import (
     Point,
@@ -48,6 +49,7 @@ class _Search:
         self, router: Any, rules: _Rules, start: Point, goal: Point, clock: float
     ):
         self.router, self.rules, self.clock = router, rules, clock
+        self.compiled = clearance_kernel.enabled()  # the link work compiled (`search_kernel`)
         self.start, self.goal = start, goal
         self.checks = self.expanded = 0
         self.screened = self.ruled_out = 0  # link variants put to the ray screen; ruled out
@@ -115,9 +117,8 @@ class _Search:
         closed = np.zeros(len(nodes), dtype=bool)
         g[0] = 0.0
         while True:
-            f = np.where(closed, np.inf, g + heuristic)
-            v = int(np.argmin(f))  # ties: the lowest index, i.e. the lowest (x, y)
-            if not np.isfinite(f[v]):
+            v = _pick(g, heuristic, closed, self.compiled)  # ties: the lowest index
+            if v < 0:
                 return None
             if self._over_budget():
                 return self._fail(self._budget_reason())
@@ -125,11 +126,11 @@ class _Search:
             self.expanded += 1
             if v == 1:
                 return self._finish(parent)
-            cost = g[v] + _octilinear_to(nodes, tuple(nodes[v]))
-            targets = np.flatnonzero(~closed & (cost < g))
+            targets, cost = _targets(nodes, v, g, closed, self.compiled)
             if len(targets):
-                reached = targets[self._links_clear(v, targets)]
-                g[reached] = cost[reached]
+                clear = self._links_clear(v, targets)
+                reached = targets[clear]
+                g[reached] = cost[clear]
                 parent[reached] = v
 
     def _links_clear(self, v: int, targets: np.ndarray) -> np.ndarray:
@@ -146,7 +147,7 @@ class _Search:
             self.ruled_out += int((~maybe).sum())
         else:  # a small batch: the exact test costs less than the rays
             maybe = np.ones((2, len(targets)), dtype=bool)
-        links = _LinkBatch(a, ends, maybe)
+        links = _LinkBatch(a, ends, maybe, self.compiled)
         if len(links.segments):
             links.judge(self.rules.failing(links.segments))
         return links.clear
@@ -160,7 +161,16 @@ class _Search:
     def _screen(self, v: int, targets: np.ndarray) -> np.ndarray:
         """(2, n): whether link variant 0 / 1 from v to each target may be clear. A variant is
         out when one of its two segments is longer than the ray bound from its node end (the
-        first segment seen from v, the second from the target, looking back)."""
+        first segment seen from v, the second from the target, looking back). Compiled where
+        the clearance test is (`search_kernel`), the same answers."""
+        if self.compiled:
+            maybe, missing = search_kernel._screen(self.nodes, v, targets, self.rows,
+                                                   self.free, _HEADING_INDEX)
+            if len(missing):
+                self._fill(np.stack([missing // 8, missing % 8], axis=1))
+                maybe, _ = search_kernel._screen(self.nodes, v, targets, self.rows,
+                                                 self.free, _HEADING_INDEX)
+            return maybe
         d = self.nodes[targets] - self.nodes[v]
         m = np.minimum(np.abs(d[:, 0]), np.abs(d[:, 1]))
         diag = np.sign(d) * m[:, None]
@@ -183,7 +193,8 @@ class _Search:
         """Ray bounds for these (row, heading) pairs: from earlier searches under the same
         rules when they reached as far, else worked out now."""
         points = self.points[keys[:, 0]]
-        names = [(int(x), int(y), int(h)) for (x, y), h in zip(points, keys[:, 1])]
+        names = [(x, y, h) for (x, y), h in zip(points.astype(np.int64).tolist(),
+                                                keys[:, 1].tolist())]
         known = self.rules.rays
         bounds = np.array([known.get(name, np.nan) for name in names])
         todo = np.isnan(bounds)
@@ -300,7 +311,13 @@ class _LinkBatch:
     `judge(failing)` takes the exact verdict per segment; `clear` then says, per end, whether
     a variant of its link is clear (a variant ruled out before counts as blocked)."""
 
-    def __init__(self, a: np.ndarray, ends: np.ndarray, maybe: np.ndarray):
+    def __init__(self, a: np.ndarray, ends: np.ndarray, maybe: np.ndarray,
+                 compiled: bool = False):
+        self.clear = np.zeros(len(ends), dtype=bool)
+        if compiled:  # the same segments, in one compiled pass (`search_kernel`)
+            self.segments, self.direct, *self.bent = search_kernel._link_segments(a, ends,
+                                                                                  maybe)
+            return
         d = ends - a
         m = np.minimum(np.abs(d[:, 0]), np.abs(d[:, 1]))
         diag = np.sign(d) * m[:, None]
@@ -315,7 +332,6 @@ class _LinkBatch:
         stops = np.concatenate([ends[self.direct], knees[0], ends[self.bent[0]],
                                 knees[1], ends[self.bent[1]]])
         self.segments = np.stack([starts, stops], axis=1).astype(float)
-        self.clear = np.zeros(len(ends), dtype=bool)
 
     def judge(self, failing: np.ndarray) -> None:
         at = len(self.direct)
@@ -334,6 +350,26 @@ def _reverse(headings: np.ndarray) -> np.ndarray:
 def _is_octilinear(a: np.ndarray, targets: np.ndarray) -> np.ndarray:
     d = np.abs(targets - a)
     return (d[:, 0] == 0) | (d[:, 1] == 0) | (d[:, 0] == d[:, 1])
+
+
+def _pick(g: np.ndarray, heuristic: np.ndarray, closed: np.ndarray, compiled: bool) -> int:
+    """The open node of least g + heuristic, the lowest index among equals; -1 when none is
+    finite."""
+    if compiled:
+        return int(search_kernel._pick(g, heuristic, closed))
+    f = np.where(closed, np.inf, g + heuristic)
+    v = int(np.argmin(f))
+    return v if np.isfinite(f[v]) else -1
+
+
+def _targets(nodes: np.ndarray, v: int, g: np.ndarray, closed: np.ndarray,
+             compiled: bool) -> tuple[np.ndarray, np.ndarray]:
+    """The open nodes whose cost through node v is below their g, and those costs."""
+    if compiled:
+        return search_kernel._targets(nodes, v, float(g[v]), g, closed)
+    cost = g[v] + _octilinear_to(nodes, tuple(nodes[v]))
+    targets = np.flatnonzero(~closed & (cost < g))
+    return targets, cost[targets]
 
 
 def _octilinear_to(points: np.ndarray, target: Point) -> np.ndarray:

@@ -8,7 +8,7 @@ import shapely
 
 from pcbdata.router.connections import Connection, End, spanning_connections
 from pcbdata.router.geometry import BoardGeometry, CopperItem, copper_core
-from pcbdata.router.negotiate import Negotiator, NetRule
+from pcbdata.router.negotiate import Negotiator, NetRule, Plan, Wire
 
 MM = 1_000_000
 LAYERS = ("F.Cu",)
@@ -117,6 +117,45 @@ def test_the_work_budget_counts_link_checks_and_stops_the_plan():
     assert again.wires == short.wires and again.stats == short.stats
 
 
+class _Scripted(Negotiator):
+    """The negotiation's rounds with each round's outcome given (rip-ups and open
+    connections per round), to follow the orders of the later rounds."""
+
+    def __init__(self, script, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.script, self.orders = list(script), []
+
+    def _round(self, order):
+        self._reset()
+        self.orders.append(list(order))
+        rips, open_ = self.script.pop(0)
+        self.rips = list(rips)
+        wires = {i: Wire("A", (("F.Cu", ((0, 0), (i + 1, 0))),)) for i in range(3)
+                 if i not in open_}
+        return Plan(wires, {i: "congestion" for i in open_}, {"rips": sum(rips)})
+
+
+def test_later_rounds_go_hardest_first_by_history_until_an_order_repeats():
+    board, connections, rules = gates_board()
+    three = connections + [connections[0]]  # the third has a way on the bare board
+    script = [([0, 3, 0], {2}),  # history: 0, 3, 2
+              ([0, 0, 0], {2}),  # open first: 2, 0, 1; history 0, 3, 4
+              ([0, 0, 0], {2}),  # the same order again; history 0, 3, 6
+              ([0, 0, 0], set())]  # hardest first: 2, 1, 0
+    done = _Scripted(list(script), board, LAYERS, rules, three)
+    plan = done.run()
+    assert done.orders == [[0, 1, 2], [2, 0, 1], [2, 0, 1], [2, 1, 0]]
+    assert plan.open == {} and plan.stats["rounds"] == 4
+    # a history round that leaves the same connection open only adds to its history: the
+    # hardest-first order repeats, and the rounds stop
+    stuck = _Scripted(script[:3] + [([0, 0, 0], {2})] * 5, board, LAYERS, rules, three)
+    plan = stuck.run()
+    assert stuck.orders[3:] == [[2, 1, 0]] and plan.open == {2: "congestion"}
+    # only the two open-first rounds when restarts allow no more
+    short = _Scripted(list(script), board, LAYERS, rules, three, restarts=2)
+    assert short.run().stats["rounds"] == 3 and short.orders[-1] == [2, 0, 1]
+
+
 def test_boxed_in_end_is_named():
     board, _, rules = gates_board()
     walls = tuple(CopperItem(kind="zone", net="WALL", layers=LAYERS, clearance=mm(0.2),
@@ -129,6 +168,7 @@ def test_boxed_in_end_is_named():
     b = [End(mm(5), mm(15), LAYERS, mm(0.15)), End(mm(25), mm(15), LAYERS, mm(0.15))]
     plan = Negotiator(boxed, LAYERS, rules, [Connection("B", *b)]).run()
     assert plan.open == {0: "boxed_in"}
+    assert plan.stats["rounds"] == 3  # no rounds by history: no order frees a boxed-in end
 
 
 def test_seeded_orders_differ_and_repeat():
