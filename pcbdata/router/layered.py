@@ -143,9 +143,9 @@ class _LayerGraph(_Search):
     """One layer's nodes (start, goal, corners, vias in the window) with the walkaround
     search's link checks (`_Search._links_clear`) and shortcuts."""
 
-    def __init__(self, router, rules, points: np.ndarray, reach: float):
+    def __init__(self, router, rules, points: np.ndarray, reach: float, compiled: bool):
         self.router, self.rules, self.clock = router, rules, 0.0
-        self.compiled = clearance_kernel.enabled()
+        self.compiled = compiled  # the expansions' work compiled (`search_kernel`)
         self.checks = self.expanded = self.screened = self.ruled_out = 0
         self.points = points.astype(float)  # for the ray bounds
         self.nodes, self.rows = points.astype(np.int64), np.arange(len(points))
@@ -226,9 +226,10 @@ class _Layered:
                via_prices: np.ndarray) -> LayeredResult | None:
         """A way through these nodes, a failed result when out of budget, None when none."""
         graphs, offsets, size = [], [], 0
+        compiled = clearance_kernel.enabled()
         for k, rules in enumerate(self.rules):
             points = np.concatenate([self.ends, vias, corners[k]])
-            graphs.append(_LayerGraph(self.router, rules, points, self.reach))
+            graphs.append(_LayerGraph(self.router, rules, points, self.reach, compiled))
             offsets.append(size)
             size += len(points)
         nvias = len(vias)
@@ -238,7 +239,6 @@ class _Layered:
         closed = np.zeros(size, dtype=bool)
         heuristic = np.concatenate([_octilinear_to(gr.nodes, self.req.goal) for gr in graphs])
         goal_nodes = {offsets[k] + 1 for k in self.goals}
-        compiled = clearance_kernel.enabled()
         for k in self.starts:
             g[offsets[k]] = 0.0
         try:

@@ -315,8 +315,8 @@ class _LinkBatch:
                  compiled: bool = False):
         self.clear = np.zeros(len(ends), dtype=bool)
         if compiled:  # the same segments, in one compiled pass (`search_kernel`)
-            self.segments, self.direct, *self.bent = search_kernel._link_segments(a, ends,
-                                                                                  maybe)
+            self.segments, self.direct, *self.bent = search_kernel._batch_segments(a, ends,
+                                                                                   maybe)
             return
         d = ends - a
         m = np.minimum(np.abs(d[:, 0]), np.abs(d[:, 1]))

@@ -1,6 +1,6 @@
 """The searches' work per expansion, compiled: the node to expand next (`_pick`), the nodes
 whose cost it lowers (`_targets`), which of their links the ray screen rules out (`_screen`)
-and the segments of the links still in question (`_link_segments`).
+and the segments of the links still in question (`_batch_segments`).
 
 Each expansion of `pcbdata.router.search._Search` (and of the layered search's layers) looks
 at every node of the window and checks the links from one node to many: their one-bend
@@ -20,8 +20,6 @@ import numpy as np
 
 from pcbdata.router.clearance import _ROOT2
 from pcbdata.router.clearance_kernel import _jit
-
-ROOT2 = _ROOT2
 
 
 @_jit
@@ -69,7 +67,7 @@ def _screen(nodes, v, targets, rows, free, index):
         h_straight = _heading(_sign(sx), _sign(sy), index)
         h_diag = _heading(_sign(gx), _sign(gy), index)
         len_straight = float(max(abs(sx), abs(sy)))
-        len_diag = m * ROOT2
+        len_diag = m * _ROOT2
         t_row = rows[t]
         # variant 0: straight from v, then diagonal into t (seen from t: reversed);
         # variant 1: diagonal from v, then straight into t
@@ -99,7 +97,7 @@ def _too_long(free, row, heading, length, codes, k):
 
 
 @_jit
-def _link_segments(a, ends, maybe):
+def _batch_segments(a, ends, maybe):
     """The link batch's segments (k, 2, 2) float and the ends' indices: links that are one
     octilinear segment (`direct`), then the two-segment links of variant 0 and of variant 1
     still in question (`bent0`, `bent1`); segments in the order direct, variant 0's first
@@ -193,7 +191,7 @@ def _targets(nodes, v, base, g, closed):
             continue
         dx = float(abs(nodes[i, 0] - vx))
         dy = float(abs(nodes[i, 1] - vy))
-        c = base + (max(dx, dy) + (ROOT2 - 1) * min(dx, dy))
+        c = base + (max(dx, dy) + (_ROOT2 - 1) * min(dx, dy))
         if c < g[i]:
             out[k] = i
             cost[k] = c
