@@ -6,7 +6,9 @@ equal plans) and the CPU seconds of planning.
 
 Run it twice, with and without ``PCBDATA_NO_NUMBA=1``, to compare the compiled clearance test
 with the reference form (same digests, the time apart); `--both` does that in one process and
-writes both into `--json`.
+writes both into `--json`. `--proofs` plans each board with the searches' proofs that no path
+exists (`WalkaroundRouter.prove_separation`, the planner's default) and without them: the same
+plans where the budget is not reached, the work and the time apart.
 """
 from __future__ import annotations
 
@@ -30,11 +32,11 @@ def digest(plan) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def plan_once(env, board_id: str) -> dict:
+def plan_once(env, board_id: str, **options) -> dict:
     env.reset(seed=0, options={"board_id": board_id})
     view = env.unwrapped.board_view()
     clock = time.process_time()
-    plan, _ = plan_board(view)
+    plan, _ = plan_board(view, **options)
     seconds = time.process_time() - clock
     return {"open": len(plan.open), "route_calls": plan.stats.get("route_calls"),
             "work": plan.stats.get("work"),
@@ -50,6 +52,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--boards", nargs="*", help="board ids or name endings (default: all)")
     parser.add_argument("--both", action="store_true",
                         help="each board compiled, then with PCBDATA_NO_NUMBA=1")
+    parser.add_argument("--proofs", action="store_true",
+                        help="each board with the searches' proofs, then without them")
     parser.add_argument("--json", help="write the rows and the machine here")
     args = parser.parse_args(argv)
     folder = Path(args.set) / args.config / args.split
@@ -62,13 +66,15 @@ def main(argv: list[str] | None = None) -> None:
     try:
         for board_id in ids:
             row = {"board": board_id}
-            forms = ("compiled", "reference") if args.both else ("as_set",)
+            forms = (("compiled", "reference") if args.both
+                     else ("proofs", "no_proofs") if args.proofs else ("as_set",))
             for form in forms:
-                if form != "as_set":
+                if args.both:
                     os.environ["PCBDATA_NO_NUMBA"] = "1" if form == "reference" else "0"
-                row[form] = plan_once(env, board_id)
-            if args.both:
-                row["same_plan"] = row["compiled"]["digest"] == row["reference"]["digest"]
+                options = {"prove_separation": False} if form == "no_proofs" else {}
+                row[form] = plan_once(env, board_id, **options)
+            if len(forms) == 2:
+                row["same_plan"] = row[forms[0]]["digest"] == row[forms[1]]["digest"]
             rows.append(row)
             print(json.dumps(row), flush=True)
     finally:
@@ -80,12 +86,12 @@ def main(argv: list[str] | None = None) -> None:
                   "machine": f"{os.cpu_count()} cores, {platform.platform()}",
                   "load_after": " ".join(f"{x:.2f}" for x in os.getloadavg()),
                   "rows": rows}
-        if args.both:
-            pairs = [(r["compiled"]["cpu_s"], r["reference"]["cpu_s"]) for r in rows]
-            record["summary"] = {
-                "boards": len(rows), "same_plan": sum(r["same_plan"] for r in rows),
-                "compiled_cpu_s": round(sum(a for a, _ in pairs), 1),
-                "reference_cpu_s": round(sum(b for _, b in pairs), 1)}
+        if len(forms) == 2:
+            record["summary"] = {"boards": len(rows),
+                                 "same_plan": sum(r["same_plan"] for r in rows)}
+            for form in forms:
+                record["summary"][f"{form}_cpu_s"] = round(sum(r[form]["cpu_s"] for r in rows), 1)
+                record["summary"][f"{form}_work"] = sum(r[form]["work"] for r in rows)
         Path(args.json).write_text(json.dumps(record, indent=1) + "\n")
 
 

@@ -5,7 +5,10 @@ beside it, where given, another agent's runs on the same boards (U and DRV per b
 rollout by fewest U).
 
     python bench/negotiated_table.py RUNS [--vs OTHER_RUNS [--vs-name NAME]]
-        [--json bench/runs/X.json] [--note TEXT]
+        [--vs-record bench/runs/EARLIER.json] [--json bench/runs/X.json] [--note TEXT]
+
+`--vs-record` takes the other agent's columns from an earlier record of this table (its rows'
+`NAME_U`, `NAME_DRV` and `NAME_s`, NAME from `--vs-name`), for runs no longer on the machine.
 
 The JSON keeps the command, the date, the machine and its load with the rows.
 """
@@ -68,10 +71,17 @@ def main() -> int:
     parser.add_argument("runs", type=Path, help="a `pcbdata rollout --agent negotiated` folder")
     parser.add_argument("--vs", type=Path, help="another agent's runs on the same boards")
     parser.add_argument("--vs-name", default="other", help="prefix of the --vs columns")
+    parser.add_argument("--vs-record", type=Path,
+                        help="an earlier record of this table: its --vs-name columns")
     parser.add_argument("--json", type=Path, help="write the rows here")
     parser.add_argument("--note", default="", help="how the runs were made (commands, load)")
     args = parser.parse_args()
     table = rows(args.runs, args.vs, args.vs_name)
+    if args.vs_record:
+        earlier = {r["board"]: r for r in json.loads(args.vs_record.read_text())["rows"]}
+        for row in table:
+            row.update({k: v for k, v in earlier.get(row["board"], {}).items()
+                        if k.startswith(f"{args.vs_name}_")})
     print(markdown(table), end="")
     if args.json:
         record = {"command": " ".join(sys.argv), "note": args.note,

@@ -153,6 +153,7 @@ class _Rules:
         self._obstacle_items = np.flatnonzero(obstacle)
         self._obstacle_reach = self.reach[self._obstacle_items]
         self._screen: CapsuleScreen | None = None
+        self._free_parts: np.ndarray | None = None  # `separated`'s free space, in parts
         # Kept for later searches under the same rules (see `WalkaroundRouter._rules`): the
         # search's corner nodes and ray bounds by (x, y, heading).
         self.corners: np.ndarray | None = None
@@ -227,6 +228,33 @@ class _Rules:
         seg, item = seg[keep], item[keep]
         near = ~(lowest[seg] >= self.reach[item]).any(axis=1)
         return seg[near], item[near]
+
+    def free_parts(self, region: shapely.Geometry | None) -> np.ndarray:
+        """The free space of this request's track centre, in parts (polygons): the board
+        `region` (None: no outline) less every obstacle's keep-out. Keep-outs are drawn inside
+        the true ones (a buffer's polygon has its corners on the circle), so the space drawn
+        is a little larger than the true one and every clear path lies in one part. Worked
+        out once per rules (`separated`, `layered`'s proof that no way exists)."""
+        if self._free_parts is None:
+            items = self._obstacle_items
+            blocked = shapely.union_all(shapely.buffer(self.layer.cores[items],
+                                                       self.need[items], quad_segs=8))
+            if region is None:  # no outline: a box far round the keep-outs
+                lo, hi = (np.array(shapely.bounds(blocked)).reshape(2, 2)
+                          if len(items) else np.zeros((2, 2)))
+                region = shapely.box(*(lo - 1e12), *(hi + 1e12))
+            self._free_parts = shapely.get_parts(shapely.difference(region, blocked))
+        return self._free_parts
+
+    def separated(self, region: shapely.Geometry | None, a: tuple[int, int],
+                  b: tuple[int, int]) -> bool:
+        """Whether no clear path of this request's track joins points a and b: `free_parts`
+        holds each of them, but in different parts (True only where certain; False where in
+        doubt, e.g. an end within a keep-out)."""
+        parts = self.free_parts(region)
+        holding_a = shapely.covers(parts, shapely.Point(a))
+        holding_b = shapely.covers(parts, shapely.Point(b))
+        return bool(holding_a.any() and holding_b.any() and not (holding_a & holding_b).any())
 
     def failing(self, segments: np.ndarray) -> np.ndarray:
         """Whether each segment (k, 2, 2) violates clearance: by the compiled test where it is

@@ -21,11 +21,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+import shapely
 
 from pcbdata.router import clearance_kernel
 from pcbdata.router.clearance import HEADINGS
 from pcbdata.router.geometry import Point, simplify_path
 from pcbdata.router.search import (
+    SEPARATION_AFTER,
     WINDOW_MIN,
     WINDOW_SHARE,
     _link_segments,
@@ -179,6 +181,7 @@ class _Layered:
         every = np.concatenate([ends, self.vias, *self.corners]).astype(float)
         self.reach = float(np.hypot(*(every.max(axis=0) - every.min(axis=0)))) + 2.0
         self.expanded = self.checks = 0
+        self.asked = False  # whether the search asked `_separated` yet
         self.starts = [k for k, lay in enumerate(req.layers) if lay in req.start_layers
                        and not router._point_problem(self.rules[k], req.start)]
         self.goals = [k for k, lay in enumerate(req.layers) if lay in req.goal_layers
@@ -248,6 +251,9 @@ class _Layered:
                     return None
                 if self._over_budget():
                     return self._fail("no way within the search budget")
+                if self._separated():
+                    return self._fail("no way: the free space joins no part holding the start "
+                                      "to one holding the goal")
                 closed[u] = True
                 self.expanded += 1
                 if u in goal_nodes:
@@ -263,6 +269,45 @@ class _Layered:
                             g[w], parent[w] = cost, u
         finally:
             self.checks += sum(gr.checks for gr in graphs)
+
+    def _separated(self) -> bool:
+        """Whether no way can exist, asked once, after `SEPARATION_AFTER` link checks, where
+        the router asks for it (`WalkaroundRouter.prove_separation`): the parts of each
+        layer's free space (`_Rules.free_parts`, hard copper only: soft copper is crossed,
+        never in the way), joined where one via spot lies in both, join no part holding the
+        start to one holding the goal. Every way's legs lie in its layers' parts and change
+        layer at via spots, so True is certain; False may be doubt."""
+        if self.asked or self.checks < SEPARATION_AFTER or not self.router.prove_separation:
+            return False
+        self.asked = True
+        parts = [rules.free_parts(self.router._region) for rules in self.rules]
+        offsets = np.cumsum([0] + [len(p) for p in parts])
+        root = np.arange(offsets[-1])
+
+        def find(x: int) -> int:
+            while root[x] != x:
+                root[x] = root[root[x]]
+                x = int(root[x])
+            return x
+
+        if len(self.vias):
+            spots = shapely.points(self.vias.astype(float))
+            pairs = []
+            for k, layer_parts in enumerate(parts):
+                spot, part = shapely.STRtree(layer_parts).query(spots, predicate="covered_by")
+                pairs.append(np.stack([spot, part + offsets[k]], axis=1))
+            joined = np.concatenate(pairs)
+            joined = joined[np.lexsort((joined[:, 1], joined[:, 0]))]
+            for (spot_a, a), (spot_b, b) in zip(joined, joined[1:]):
+                if spot_a == spot_b:
+                    root[find(int(a))] = find(int(b))
+
+        def holding(point, layers) -> set[int]:
+            return {find(int(offsets[k] + j)) for k in layers
+                    for j in np.flatnonzero(shapely.covers(parts[k], shapely.Point(point)))}
+
+        starts, goals = holding(self.req.start, self.starts), holding(self.req.goal, self.goals)
+        return bool(starts and goals) and not starts & goals
 
     def _expand(self, k: int, graph: _LayerGraph, offset: int, i: int, g, parent,
                 closed) -> None:

@@ -27,7 +27,11 @@ when that order repeats one already tried. The best state seen (most connections
 least wire) is the plan. Work is counted in route calls
 (`budget_routes`), each search's expansions and link checks, and the link checks of all the
 plan's searches together (`budget_work`), never timed: the same board gives the same plan on
-any machine.
+any machine. The planner's routers prove where they can that a search has no way
+(`WalkaroundRouter.prove_separation`: after `search.SEPARATION_AFTER` link checks, whether the
+free space, joined through via spots for the layered search, keeps the ends apart): a search
+so proven stops at once, so a plan that the budget does not end is the same with or without
+the proofs, at less work, and one the budget ends goes further.
 
 Every leg is a walkaround or layered path and every via fits where it stands, so the planned
 copper keeps clearance by construction; KiCad judges it when it is laid
@@ -60,8 +64,8 @@ from pcbdata.router.walkaround import WalkaroundRouter
 BUDGET_ROUTES = 3000
 #: Link checks the searches of a plan may make in all (the routers' counted work, answers
 #: remembered from earlier searches free); the plan stops where either budget runs out. The
-#: completed D3-B and D3-C test picks need at most 9.2 million at seed 0, some real tier C
-#: boards 41-64 million.
+#: completed D3-B and D3-C test picks need at most 5.2 million at seed 0, some real tier C
+#: boards more than 40 million.
 BUDGET_WORK = 80_000_000
 MAX_RIPS = 3
 #: What crossing a planned connection costs the rip-up search, in nm of track (once more for
@@ -134,14 +138,16 @@ class Negotiator:
                  max_rips: int = MAX_RIPS,
                  restarts: int = RESTARTS, router_nodes: int | None = None,
                  router_checks: int | None = None, via_cost: int = VIA_COST,
-                 rip_price: int = RIP_PRICE):
+                 rip_price: int = RIP_PRICE, prove_separation: bool = True):
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
         self.budget, self.max_rips, self.restarts = budget_routes, max_rips, restarts
         self.budget_work = budget_work
         self.via_cost, self.rip_price = via_cost, rip_price
-        self.bare = WalkaroundRouter(board, **budgets)  # the board without planned copper
+        # the board without planned copper; its searches stop where their ends are proven
+        # apart (`WalkaroundRouter.prove_separation`: the same ways, less work)
+        self.bare = WalkaroundRouter(board, prove_separation=prove_separation, **budgets)
         self.connections = [_accessible(self.bare, rules[c.net], c) for c in connections]
         self.router = self.bare.with_board(board)  # with all of it
         self.fixed_router = self.bare.with_board(board)  # with what may not be ripped up

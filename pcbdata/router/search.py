@@ -31,6 +31,11 @@ _SCREEN_LINKS = 64  # ... unless they hold this many links
 # share of them.
 _SCREEN_TRIAL = 2_000
 _SCREEN_SHARE = 0.9
+#: Where the router asks for it (`WalkaroundRouter.prove_separation`), a search that has made
+#: this many link checks asks once whether its ends lie in separate parts of the free space
+#: (`_Rules.separated`) and, if they do, stops: no path can exist. Few searches that succeed
+#: get this far; most that fail would go on to the search budget.
+SEPARATION_AFTER = 50_000
 
 
 def _mm(point: Point) -> str:
@@ -53,6 +58,7 @@ class _Search:
         self.start, self.goal = start, goal
         self.checks = self.expanded = 0
         self.screened = self.ruled_out = 0  # link variants put to the ray screen; ruled out
+        self.asked = False  # whether the search asked `_Rules.separated` yet
         if rules.corners is None:  # the same for every search under these rules
             corners = router._corner_nodes(rules)
             if len(corners):
@@ -101,6 +107,14 @@ class _Search:
             )
         )
 
+    def _separated(self) -> bool:
+        """Whether the ends are proven apart (asked once, after `SEPARATION_AFTER` link
+        checks, where the router asks for it); False where not asked or not proven."""
+        if self.asked or self.checks < SEPARATION_AFTER or not self.router.prove_separation:
+            return False
+        self.asked = True
+        return self.rules.separated(self.router._region, self.start, self.goal)
+
     def _budget_reason(self) -> str:
         router = self.router
         limits = [f"{router.budget_nodes} nodes", f"{router.budget_checks} link checks"]
@@ -122,6 +136,9 @@ class _Search:
                 return None
             if self._over_budget():
                 return self._fail(self._budget_reason())
+            if self._separated():
+                return self._fail("no path: the start and the goal lie in separate parts of "
+                                  "the free space")
             closed[v] = True
             self.expanded += 1
             if v == 1:

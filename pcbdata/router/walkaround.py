@@ -80,6 +80,9 @@ class WalkaroundRouter:
     A search stops after `budget_nodes` expansions or `budget_checks` link checks, counts that
     do not depend on the machine, so the same board and request give the same answer anywhere.
     `budget_seconds` (default None: no limit) adds a wall-clock limit, at the price of that.
+    With `prove_separation`, a search that has come far asks once whether its ends lie in
+    separate parts of the free space and stops if they do (`search.SEPARATION_AFTER`): the
+    same paths, less work where none exists.
     """
 
     def __init__(
@@ -88,8 +91,10 @@ class WalkaroundRouter:
         budget_nodes: int = BUDGET_NODES,
         budget_checks: int = BUDGET_CHECKS,
         budget_seconds: float | None = None,
+        prove_separation: bool = False,
     ):
         self.budget_nodes = budget_nodes
+        self.prove_separation = prove_separation
         self.budget_checks = budget_checks
         self.budget_seconds = budget_seconds
         self._cache: dict[CopperItem, _Prepared] = {}
@@ -102,6 +107,7 @@ class WalkaroundRouter:
         other = WalkaroundRouter.__new__(WalkaroundRouter)
         other.budget_nodes, other.budget_checks = self.budget_nodes, self.budget_checks
         other.budget_seconds = self.budget_seconds
+        other.prove_separation = self.prove_separation
         other._cache = dict(self._cache)
         other._shared = self._shared
         other.update(board)

@@ -265,3 +265,17 @@ def test_the_rip_up_search_keeps_vias_off_its_own_nets_planned_vias(d3_set):
         if net == other:
             assert math.dist(a, b) == 0 or math.dist(a, b) >= diameter[net], (net, a, b)
     _assert_legal(view, plan, connections)
+
+
+def test_proofs_that_no_path_exists_change_no_way_and_save_work(d3_set):
+    """On a real board whose plan has searches that find nothing, the proofs that a search's
+    ends lie in separate parts of the free space (`WalkaroundRouter.prove_separation`) leave
+    every way, open connection and rip-up of the plan as it is and cut its counted work."""
+    from pcbdata.agents.negotiated import plan_board
+
+    view = _view(d3_set, _board_id(d3_set, RIPPED))
+    proving, _ = plan_board(view)
+    plain, _ = plan_board(view, prove_separation=False)
+    assert proving.wires == plain.wires and proving.open == plain.open
+    assert proving.stats["rips"] == plain.stats["rips"] >= 1
+    assert proving.stats["work"] < 0.6 * plain.stats["work"]

@@ -1,0 +1,96 @@
+"""Proofs that no path exists (`_Rules.free_parts`, `_Rules.separated`, the layered search's
+`_separated`): true only where certain, and a search that asks for them
+(`WalkaroundRouter.prove_separation`) gives the same answers, stopping early where none exists."""
+from __future__ import annotations
+
+import pytest
+import shapely
+
+from pcbdata.router import layered, search
+from pcbdata.router.geometry import BoardGeometry
+from pcbdata.router.requests import RouteRequest
+from pcbdata.router.walkaround import WalkaroundRouter
+from tests.router.test_layered import LAYERS, MM, OUTLINE, assert_legal, rect, request, walled_board
+
+
+def _rules(router: WalkaroundRouter, layer: str):
+    return router._rules("A", layer, 250_000, 200_000)
+
+
+def test_a_wall_from_edge_to_edge_separates_and_a_gate_does_not():
+    router = WalkaroundRouter(walled_board())
+    start, goal = (5 * MM, 10 * MM), (25 * MM, 10 * MM)
+    assert _rules(router, "F.Cu").separated(router._region, start, goal)  # wall edge to edge
+    assert not _rules(router, "B.Cu").separated(router._region, start, goal)  # a gate
+    open_board = WalkaroundRouter(BoardGeometry(OUTLINE, (), 300_000))
+    assert not _rules(open_board, "F.Cu").separated(open_board._region, start, goal)
+
+
+def test_an_end_within_a_keep_out_is_doubt_not_proof():
+    router = WalkaroundRouter(walled_board())
+    in_wall = (15 * MM, 10 * MM)
+    assert not _rules(router, "F.Cu").separated(router._region, (5 * MM, 10 * MM), in_wall)
+
+
+def test_the_free_parts_hold_every_clear_path():
+    """The parts are drawn a little larger than the free space: every point of a path the
+    router finds lies in the part that holds its start."""
+    board = walled_board()
+    router = WalkaroundRouter(board)
+    result = router.route(RouteRequest("A", "B.Cu", (5 * MM, 10 * MM), (25 * MM, 10 * MM),
+                                       250_000, 200_000))
+    assert result.path is not None
+    parts = _rules(router, "B.Cu").free_parts(router._region)
+    holding = [p for p in parts if p.covers(shapely.Point(result.path[0]))]
+    assert len(holding) == 1
+    assert holding[0].covers(shapely.LineString(result.path))
+
+
+@pytest.fixture
+def ask_at_once(monkeypatch):
+    """Searches ask for the proof at their first expansion."""
+    monkeypatch.setattr(search, "SEPARATION_AFTER", 0)
+    monkeypatch.setattr(layered, "SEPARATION_AFTER", 0)
+
+
+def test_a_walkaround_search_stops_at_a_proof_and_finds_the_same_paths(ask_at_once):
+    board = walled_board()
+    proving = WalkaroundRouter(board, prove_separation=True)
+    plain = WalkaroundRouter(board)
+    walled = RouteRequest("A", "F.Cu", (5 * MM, 10 * MM), (25 * MM, 10 * MM), 250_000, 200_000)
+    gated = RouteRequest("A", "B.Cu", (5 * MM, 10 * MM), (25 * MM, 10 * MM), 250_000, 200_000)
+    proven = proving.route(walled)
+    assert proven.path is None and "separate parts of the free space" in proven.reason
+    assert proven.stats["expanded"] == 0
+    searched = plain.route(walled)
+    assert searched.path is None and searched.stats["expanded"] > 0
+    assert proving.route(gated).path == plain.route(gated).path is not None
+
+
+def test_a_layered_search_stops_at_a_proof_and_finds_the_same_ways(ask_at_once):
+    closed = BoardGeometry(OUTLINE, (rect("GND", LAYERS, 14, 0, 16, 30),), 300_000)
+    proven = WalkaroundRouter(closed, prove_separation=True).route_layers(request())
+    assert proven.legs is None and "joins no part" in proven.reason
+    assert proven.stats["expanded"] == 0
+    assert WalkaroundRouter(closed).route_layers(request()).legs is None
+    board = walled_board()  # F.Cu walled, B.Cu gated: a way through two vias
+    found = WalkaroundRouter(board, prove_separation=True).route_layers(request())
+    plain = WalkaroundRouter(board).route_layers(request())
+    assert found.legs is not None and (found.legs, found.vias) == (plain.legs, plain.vias)
+    assert_legal(board, found.legs, found.vias, request())
+
+
+def test_vias_join_the_parts_of_different_layers(ask_at_once):
+    """Start on F.Cu left of its wall, goal on B.Cu right of it (the wall on F.Cu only): F.Cu
+    alone separates them, a via spot of the start's ring joins F.Cu's part to B.Cu's, and the
+    way is the one found without the proof."""
+    board = BoardGeometry(OUTLINE, (rect("GND", ("F.Cu",), 14, 0, 16, 30),), 300_000)
+    req = request(goal_layers=("B.Cu",))
+    router = WalkaroundRouter(board, prove_separation=True)
+    assert router._rules("A", "F.Cu", 250_000, 200_000).separated(router._region, req.start,
+                                                                 req.goal)
+    found = router.route_layers(req)
+    plain = WalkaroundRouter(board).route_layers(req)
+    assert found.legs is not None and len(found.vias) >= 1
+    assert (found.legs, found.vias) == (plain.legs, plain.vias)
+    assert_legal(board, found.legs, found.vias, req)
