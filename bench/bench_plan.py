@@ -50,10 +50,11 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--config", required=True)
     parser.add_argument("--split", default="test")
     parser.add_argument("--boards", nargs="*", help="board ids or name endings (default: all)")
-    parser.add_argument("--both", action="store_true",
-                        help="each board compiled, then with PCBDATA_NO_NUMBA=1")
-    parser.add_argument("--proofs", action="store_true",
-                        help="each board with the searches' proofs, then without them")
+    pair = parser.add_mutually_exclusive_group()
+    pair.add_argument("--both", action="store_true",
+                      help="each board compiled, then with PCBDATA_NO_NUMBA=1")
+    pair.add_argument("--proofs", action="store_true",
+                      help="each board with the searches' proofs, then without them")
     parser.add_argument("--json", help="write the rows and the machine here")
     args = parser.parse_args(argv)
     folder = Path(args.set) / args.config / args.split

@@ -123,6 +123,42 @@ class _Layer:
         return f"a {self.kind[index]} of net {net!r}" if net else f"a no-net {self.kind[index]}"
 
 
+def parts_apart(parts: list[np.ndarray], spots: np.ndarray, a: tuple[int, int],
+                a_layers: list[int], b: tuple[int, int], b_layers: list[int]) -> bool:
+    """Whether no clear way joins point a, on any of `a_layers`, to point b, on any of
+    `b_layers`: `parts[k]` is layer k's free space in parts (`_Rules.free_parts`), and the
+    parts of several layers that one of `spots` (a via's place) lies in are joined. Every way
+    runs inside one part per layer and changes layer at a spot, so True is certain; False
+    where in doubt (an end in no part, e.g. within a keep-out, proves nothing)."""
+    offsets = np.cumsum([0] + [len(p) for p in parts])
+    root = np.arange(offsets[-1])
+
+    def find(x: int) -> int:
+        while root[x] != x:
+            root[x] = root[root[x]]
+            x = int(root[x])
+        return x
+
+    if len(spots):
+        points = shapely.points(np.asarray(spots, dtype=float))
+        pairs = []
+        for k, layer_parts in enumerate(parts):
+            spot, part = shapely.STRtree(layer_parts).query(points, predicate="covered_by")
+            pairs.append(np.stack([spot, part + offsets[k]], axis=1))
+        joined = np.concatenate(pairs)
+        joined = joined[np.lexsort((joined[:, 1], joined[:, 0]))]
+        for (spot_a, part_a), (spot_b, part_b) in zip(joined, joined[1:]):
+            if spot_a == spot_b:
+                root[find(int(part_a))] = find(int(part_b))
+
+    def holding(point: tuple[int, int], layers: list[int]) -> set[int]:
+        return {find(int(offsets[k] + j)) for k in layers
+                for j in np.flatnonzero(shapely.covers(parts[k], shapely.Point(point)))}
+
+    starts, goals = holding(a, a_layers), holding(b, b_layers)
+    return bool(starts and goals) and not starts & goals
+
+
 class _Rules:
     """One request's view of a layer: which items are obstacles and how far to stay away.
 
@@ -248,13 +284,9 @@ class _Rules:
 
     def separated(self, region: shapely.Geometry | None, a: tuple[int, int],
                   b: tuple[int, int]) -> bool:
-        """Whether no clear path of this request's track joins points a and b: `free_parts`
-        holds each of them, but in different parts (True only where certain; False where in
-        doubt, e.g. an end within a keep-out)."""
-        parts = self.free_parts(region)
-        holding_a = shapely.covers(parts, shapely.Point(a))
-        holding_b = shapely.covers(parts, shapely.Point(b))
-        return bool(holding_a.any() and holding_b.any() and not (holding_a & holding_b).any())
+        """Whether no clear path of this request's track joins points a and b on this layer
+        (`parts_apart` over `free_parts`: True only where certain)."""
+        return parts_apart([self.free_parts(region)], np.empty((0, 2)), a, [0], b, [0])
 
     def failing(self, segments: np.ndarray) -> np.ndarray:
         """Whether each segment (k, 2, 2) violates clearance: by the compiled test where it is

@@ -21,10 +21,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import shapely
 
 from pcbdata.router import clearance_kernel
-from pcbdata.router.clearance import HEADINGS
+from pcbdata.router.clearance import HEADINGS, parts_apart
 from pcbdata.router.geometry import Point, simplify_path
 from pcbdata.router.search import (
     SEPARATION_AFTER,
@@ -272,42 +271,16 @@ class _Layered:
 
     def _separated(self) -> bool:
         """Whether no way can exist, asked once, after `SEPARATION_AFTER` link checks, where
-        the router asks for it (`WalkaroundRouter.prove_separation`): the parts of each
-        layer's free space (`_Rules.free_parts`, hard copper only: soft copper is crossed,
-        never in the way), joined where one via spot lies in both, join no part holding the
-        start to one holding the goal. Every way's legs lie in its layers' parts and change
-        layer at via spots, so True is certain; False may be doubt."""
+        the router asks for it (`WalkaroundRouter.prove_separation`): each layer's free space
+        (`_Rules.free_parts`, hard copper only: soft copper is crossed, never in the way),
+        joined through the via spots, keeps the start apart from the goal
+        (`clearance.parts_apart`)."""
         if self.asked or self.checks < SEPARATION_AFTER or not self.router.prove_separation:
             return False
         self.asked = True
         parts = [rules.free_parts(self.router._region) for rules in self.rules]
-        offsets = np.cumsum([0] + [len(p) for p in parts])
-        root = np.arange(offsets[-1])
-
-        def find(x: int) -> int:
-            while root[x] != x:
-                root[x] = root[root[x]]
-                x = int(root[x])
-            return x
-
-        if len(self.vias):
-            spots = shapely.points(self.vias.astype(float))
-            pairs = []
-            for k, layer_parts in enumerate(parts):
-                spot, part = shapely.STRtree(layer_parts).query(spots, predicate="covered_by")
-                pairs.append(np.stack([spot, part + offsets[k]], axis=1))
-            joined = np.concatenate(pairs)
-            joined = joined[np.lexsort((joined[:, 1], joined[:, 0]))]
-            for (spot_a, a), (spot_b, b) in zip(joined, joined[1:]):
-                if spot_a == spot_b:
-                    root[find(int(a))] = find(int(b))
-
-        def holding(point, layers) -> set[int]:
-            return {find(int(offsets[k] + j)) for k in layers
-                    for j in np.flatnonzero(shapely.covers(parts[k], shapely.Point(point)))}
-
-        starts, goals = holding(self.req.start, self.starts), holding(self.req.goal, self.goals)
-        return bool(starts and goals) and not starts & goals
+        return parts_apart(parts, self.vias, self.req.start, self.starts, self.req.goal,
+                           self.goals)
 
     def _expand(self, k: int, graph: _LayerGraph, offset: int, i: int, g, parent,
                 closed) -> None:

@@ -94,9 +94,9 @@ class WalkaroundRouter:
         prove_separation: bool = False,
     ):
         self.budget_nodes = budget_nodes
-        self.prove_separation = prove_separation
         self.budget_checks = budget_checks
         self.budget_seconds = budget_seconds
+        self.prove_separation = prove_separation
         self._cache: dict[CopperItem, _Prepared] = {}
         self._shared = _Memory()
         self.update(board)
