@@ -8,7 +8,10 @@ Run it twice, with and without ``PCBDATA_NO_NUMBA=1``, to compare the compiled c
 with the reference form (same digests, the time apart); `--both` does that in one process and
 writes both into `--json`. `--proofs` plans each board with the searches' proofs that no path
 exists (`WalkaroundRouter.prove_separation`, the planner's default) and without them: the same
-plans where the budget is not reached, the work and the time apart.
+plans where the budget is not reached, the work and the time apart. `--repair` plans each board
+with the repair after the rounds (`Negotiator._repair`, the default) and without it
+(`repair_work=0`): the same plans where the rounds complete them, and what the repair adds
+elsewhere.
 """
 from __future__ import annotations
 
@@ -26,6 +29,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import pcbdata.env  # noqa: E402
 from pcbdata.agents.negotiated import plan_board  # noqa: E402
 
+#: The planner's options of each form that is not its default.
+OPTIONS: dict[str, dict] = {"no_proofs": {"prove_separation": False},
+                            "no_repair": {"repair_work": 0}}
+
 
 def digest(plan) -> str:
     text = repr((sorted(plan.wires.items()), sorted(plan.open.items())))
@@ -40,7 +47,8 @@ def plan_once(env, board_id: str, **options) -> dict:
     seconds = time.process_time() - clock
     return {"open": len(plan.open), "route_calls": plan.stats.get("route_calls"),
             "work": plan.stats.get("work"),
-            "rips": plan.stats.get("rips"), "digest": digest(plan),
+            "rips": plan.stats.get("rips"), "repaired": plan.stats.get("repaired"),
+            "digest": digest(plan),
             "cpu_s": round(seconds, 2)}
 
 
@@ -55,6 +63,8 @@ def main(argv: list[str] | None = None) -> None:
                       help="each board compiled, then with PCBDATA_NO_NUMBA=1")
     pair.add_argument("--proofs", action="store_true",
                       help="each board with the searches' proofs, then without them")
+    pair.add_argument("--repair", action="store_true",
+                      help="each board with the repair after the rounds, then without it")
     parser.add_argument("--json", help="write the rows and the machine here")
     args = parser.parse_args(argv)
     folder = Path(args.set) / args.config / args.split
@@ -68,11 +78,12 @@ def main(argv: list[str] | None = None) -> None:
         for board_id in ids:
             row = {"board": board_id}
             forms = (("compiled", "reference") if args.both
-                     else ("proofs", "no_proofs") if args.proofs else ("as_set",))
+                     else ("proofs", "no_proofs") if args.proofs
+                     else ("repair", "no_repair") if args.repair else ("as_set",))
             for form in forms:
                 if args.both:
                     os.environ["PCBDATA_NO_NUMBA"] = "1" if form == "reference" else "0"
-                options = {"prove_separation": False} if form == "no_proofs" else {}
+                options = OPTIONS.get(form, {})
                 row[form] = plan_once(env, board_id, **options)
             if len(forms) == 2:
                 row["same_plan"] = row[forms[0]]["digest"] == row[forms[1]]["digest"]

@@ -10,7 +10,8 @@ the net that the router's board lacks). Links on a layer are the walkaround sear
 (straight or one-bend octilinear, checked exactly, screened by ray bounds), so every leg keeps
 clearance by construction, and every via fits where it stands.
 
-A* over all layers (a via costs `via_cost` nm of track), inside a window around the ends that
+A* over all layers (a via costs `via_cost` nm of track; the heuristic, the octilinear distance
+to the goal, weighted by the request's `heuristic_weight`), inside a window around the ends that
 grows while it holds no way; an expansion checks links to its `LINKS` nearest nodes and the
 goal (far links on a crowded board are nearly all blocked); the budget counts expansions and
 link checks as the walkaround search does. The answer is legs (layer, octilinear path) joined
@@ -62,6 +63,11 @@ class LayeredRequest:
     #: no via spot overlaps one (KiCad's hole_to_hole; a spot on its very point is the same
     #: via, reused).
     holes: tuple[tuple[Point, int], ...] = ()
+    #: The weight of the A* heuristic (the octilinear distance to the goal): 1 finds the
+    #: cheapest way; more expands fewer nodes for a way at most that many times as dear (the
+    #: planner's repair uses it for its rip-up searches, whose prices make the distance a weak
+    #: guide).
+    heuristic_weight: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -240,6 +246,8 @@ class _Layered:
         parent = np.full(size, -1, dtype=np.int64)
         closed = np.zeros(size, dtype=bool)
         heuristic = np.concatenate([_octilinear_to(gr.nodes, self.req.goal) for gr in graphs])
+        if self.req.heuristic_weight != 1.0:
+            heuristic = heuristic * self.req.heuristic_weight
         goal_nodes = {offsets[k] + 1 for k in self.goals}
         for k in self.starts:
             g[offsets[k]] = 0.0

@@ -24,7 +24,13 @@ best round left open first; after those, while the plan has budget left and an o
 connection that is not boxed in, each round takes the connections hardest first, by their
 history (rip-ups and times left open, summed over every round so far), and the rounds stop
 when that order repeats one already tried. The best state seen (most connections routed, then
-least wire) is the plan. Work is counted in route calls
+least wire) is then repaired where it left connections open that are not boxed in
+(`Negotiator._repair`, with a budget of its own): each such connection is laid through the
+other connections' copper, every connection it rips up is placed again (ripped at most once),
+and the attempt is kept where it leaves none of them open, or exactly one (the open connection
+changes, once per connection), else undone; the layered searches of the repair weight their
+heuristic (`REPAIR_WEIGHT`), a bounded suboptimal A* that finds long priced ways the rounds'
+searches run out of budget on. That is the plan. Work is counted in route calls
 (`budget_routes`), each search's expansions and link checks, and the link checks of all the
 plan's searches together (`budget_work`), never timed: the same board gives the same plan on
 any machine. The planner's routers prove where they can that a search has no way
@@ -89,6 +95,14 @@ OPEN_WEIGHT = 2
 CAUSES = ("boxed_in", "congestion", "budget")
 #: Grid step (nm) of access points inside a pad whose centre a track cannot start at.
 ACCESS_STEP = 50_000
+#: The repair after the rounds (`Negotiator._repair`): the link checks and route calls it may
+#: make beyond the rounds', the heuristic weight of its layered searches
+#: (`LayeredRequest.heuristic_weight`) and the search budget of its rip-up searches, in
+#: multiples of the router's.
+REPAIR_WORK = 20_000_000
+REPAIR_ROUTES = 1000
+REPAIR_WEIGHT = 2.0
+REPAIR_SEARCH = 4
 
 
 @dataclass(frozen=True)
@@ -138,13 +152,16 @@ class Negotiator:
                  max_rips: int = MAX_RIPS,
                  restarts: int = RESTARTS, router_nodes: int | None = None,
                  router_checks: int | None = None, via_cost: int = VIA_COST,
-                 rip_price: int = RIP_PRICE, prove_separation: bool = True):
+                 rip_price: int = RIP_PRICE, prove_separation: bool = True,
+                 repair_work: int = REPAIR_WORK):
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
         self.budget, self.max_rips, self.restarts = budget_routes, max_rips, restarts
         self.budget_work = budget_work
         self.via_cost, self.rip_price = via_cost, rip_price
+        self.repair_work = repair_work
+        self._weight = 1.0  # the layered searches' heuristic weight (more in the repair)
         # the board without planned copper; its searches stop where their ends are proven
         # apart (`WalkaroundRouter.prove_separation`: the same ways, less work)
         self.bare = WalkaroundRouter(board, prove_separation=prove_separation, **budgets)
@@ -192,11 +209,90 @@ class Negotiator:
             order = _by_history(history)
             if tuple(order) in tried:
                 break
+        before = len(best.open)
+        if best.open and self.repair_work > 0:
+            best = self._repair(best)
         best.open = {i: self._cause(i, c) for i, c in sorted(best.open.items())}
         best.stats = {**best.stats, "route_calls": self.calls, "work": self.work,
-                      "rounds": rounds,
+                      "rounds": rounds, "repaired": before - len(best.open),
                       "connections": len(self.connections)}
         return best
+
+    # --- the repair ---
+
+    def _repair(self, plan: Plan) -> Plan:
+        """The best round's plan repaired, one open connection at a time (shortest first,
+        boxed-in ones left), with `repair_work` more link checks and `REPAIR_ROUTES` more
+        route calls than the rounds made: an attempt (`_attempt`) lays the connection through
+        the other connections' copper and places the ones it rips up again. An attempt that
+        leaves none of them open is kept; one that leaves exactly one open is kept too (the
+        open connection changes, their number does not), once per connection that moved so;
+        any other is undone. Passes repeat while one keeps an attempt. So the repair never
+        leaves more connections open than the rounds, and a plan the rounds complete has
+        none."""
+        self.budget_work = self.work + self.repair_work
+        self.budget = self.calls + REPAIR_ROUTES
+        fixed, max_rips = self.fixed_router, self.max_rips
+        searches = fixed.budget_nodes, fixed.budget_checks
+        fixed.budget_nodes, fixed.budget_checks = (n * REPAIR_SEARCH for n in searches)
+        self.max_rips, self._weight = 1, REPAIR_WEIGHT
+        wires, open_ = dict(plan.wires), dict(plan.open)
+        moved: set[int] = set()
+        try:
+            kept = True
+            while kept and not self._spent():
+                kept = False
+                for index in sorted(open_, key=lambda i: (self.connections[i].length, i)):
+                    if self._spent():
+                        break
+                    if index not in open_ or self._boxed(index):
+                        continue
+                    attempt = self._attempt(index, wires)
+                    if attempt is None:
+                        continue
+                    after, still = attempt
+                    if still and (len(still) > 1 or next(iter(still)) in moved):
+                        continue
+                    if still:
+                        moved.add(index)
+                    wires = after
+                    del open_[index]
+                    open_.update(still)
+                    kept = True
+        finally:
+            fixed.budget_nodes, fixed.budget_checks = searches
+            self.max_rips, self._weight = max_rips, 1.0
+        self._load(wires)
+        return Plan(wires, open_, plan.stats)
+
+    def _attempt(self, index: int, wires: dict[int, Wire]
+                 ) -> tuple[dict[int, Wire], dict[int, str]] | None:
+        """From the planned `wires`: connection `index` laid by `_place` (its rip-up search
+        may cross every other connection's copper), then each connection it ripped up placed
+        again by `_place`, each ripped at most once (`max_rips` is 1 in the repair: ripped,
+        a connection is hard copper once placed again). The wires after, and the connections
+        left open with their causes; None where `index` found no way."""
+        self._load(wires)
+        self.rips[index] = self.max_rips  # hard copper for the connections it rips up
+        queue: deque = deque()
+        if self._place(index, queue):
+            return None
+        failed: dict[int, str] = {}
+        while queue and not self._spent():
+            other = queue.popleft()
+            if other not in self.wires:
+                cause = self._place(other, queue)
+                if cause:
+                    failed[other] = cause
+        still = {i: failed.get(i, "budget") for i in sorted({*failed, *queue})
+                 if i not in self.wires}
+        return dict(self.wires), still
+
+    def _load(self, wires: dict[int, Wire]) -> None:
+        """The board's state with these wires planned, none ripped up yet."""
+        self._reset()
+        for index, wire in sorted(wires.items()):
+            self._add(index, wire)
 
     @property
     def work(self) -> int:
@@ -242,9 +338,9 @@ class Negotiator:
 
     def _boxed(self, index: int) -> bool:
         """Whether the board without planned copper has no way for connection `index`
-        (asked once: that board never changes)."""
+        (asked once, by the rounds' search: that board never changes)."""
         if index not in self._boxed_in:
-            boxed = self._way(self.bare, index) is None
+            boxed = self._way(self.bare, index, weight=1.0) is None
             if self._spent():  # no answer, for want of budget
                 return boxed
             self._boxed_in[index] = boxed
@@ -344,11 +440,12 @@ class Negotiator:
                           {k: self.rip_price * (1 + self.rips[k]) for k in owners})
 
     def _way(self, router: WalkaroundRouter, index: int,
-             soft: SoftCopper | None = None) -> Wire | None:
+             soft: SoftCopper | None = None, weight: float | None = None) -> Wire | None:
         """A way for connection `index`: a walkaround path on a layer both ends are on, else
         the layered search (every layer, vias as moves of the search,
         `pcbdata.router.layered`); with `soft`, only the layered search, which may cross that
-        copper at its price."""
+        copper at its price. The layered search's heuristic weight is `weight`, else the
+        plan's (`_weight`: more in the repair)."""
         c = self.connections[index]
         rule = self.rules[c.net]
         if soft is None:
@@ -367,7 +464,8 @@ class Negotiator:
             net=c.net, start=c.a.at, start_layers=c.a.layers, goal=c.b.at,
             goal_layers=c.b.layers, width=rule.width, clearance=rule.clearance,
             via_diameter=rule.via_diameter, layers=self.layers, reach=(c.a.reach, c.b.reach),
-            via_cost=self.via_cost, holes=holes), soft)
+            via_cost=self.via_cost, holes=holes,
+            heuristic_weight=self._weight if weight is None else weight), soft)
         if result.legs is None:
             return None
         return Wire(c.net, result.legs, result.vias)

@@ -53,7 +53,7 @@ def _view(d3_set, board_id: str, config: str = "d3-b"):
 def _open_without_rip_ups(d3_set, board_id: str) -> int:
     from pcbdata.agents.negotiated import plan_board
 
-    plan, _ = plan_board(_view(d3_set, board_id), max_rips=0, restarts=0)
+    plan, _ = plan_board(_view(d3_set, board_id), max_rips=0, restarts=0, repair_work=0)
     return len(plan.open)
 
 
@@ -94,14 +94,23 @@ def test_negotiated_search_frees_what_a_plain_plan_leaves_open(d3_set):
     from pcbdata.agents.negotiated import plan_board
 
     view = _view(d3_set, _board_id(d3_set, RIPPED))
-    plain, _ = plan_board(view, max_rips=0, restarts=0)
+    plain, _ = plan_board(view, max_rips=0, restarts=0, repair_work=0)
     assert len(plain.open) >= 1
     plan, connections = plan_board(view)
     assert plan.open == {} and plan.stats["rips"] >= 1
+    assert plan.stats["repaired"] == 0  # the rounds complete it
     assert any(w.vias for w in plan.wires.values())
     _assert_legal(view, plan, connections)
     again, _ = plan_board(_view(d3_set, _board_id(d3_set, RIPPED)))
     assert again.wires == plan.wires and again.stats == plan.stats
+    # the repair after rounds that may not rip up: it lays open connections through the
+    # planned copper and places what it rips up again, and leaves fewer open
+    repaired, _ = plan_board(view, max_rips=0, restarts=0)
+    assert len(repaired.open) < len(plain.open)
+    assert repaired.stats["repaired"] == len(plain.open) - len(repaired.open)
+    _assert_legal(view, repaired, connections)
+    twice, _ = plan_board(view, max_rips=0, restarts=0)
+    assert twice.wires == repaired.wires and twice.stats == repaired.stats
 
 
 @pytest.mark.slow

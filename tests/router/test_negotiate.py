@@ -79,13 +79,16 @@ def test_spanning_connections_join_clusters_shortest_first():
 def test_a_rip_up_frees_the_last_connection():
     board, connections, rules = gates_board()
     assert [c.net for c in connections] == ["A", "B"]  # A is the shorter: routed first
-    without = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=0).run()
+    without = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=0,
+                         repair_work=0).run()
     assert sorted(without.wires) == [0] and without.open == {1: "congestion"}
     plan = Negotiator(board, LAYERS, rules, connections, restarts=0).run()
     assert sorted(plan.wires) == [0, 1] and plan.open == {}
     assert plan.stats["rips"] == 1 and plan.stats["rounds"] == 1
+    assert plan.stats["repaired"] == 0  # complete before the repair: it never ran
     # without rip-ups, a second round that places the open connection first also gets there
-    history = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=1).run()
+    history = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=1,
+                         repair_work=0).run()
     assert history.open == {} and history.stats["rounds"] == 2
     a_path = plan.wires[0].legs[0][1]
     assert max(y for _, y in a_path) > mm(26)  # A went round through gate 2
@@ -98,7 +101,8 @@ def test_plans_are_deterministic_and_the_budget_counts_route_calls():
     one = Negotiator(board, LAYERS, rules, connections).run()
     two = Negotiator(board, LAYERS, rules, connections).run()
     assert one.wires == two.wires and one.stats == two.stats
-    short = Negotiator(board, LAYERS, rules, connections, budget_routes=1).run()
+    short = Negotiator(board, LAYERS, rules, connections, budget_routes=1,
+                       repair_work=0).run()
     assert short.stats["route_calls"] == 1
     assert set(short.open.values()) <= {"budget"} and len(short.wires) == 1
 
@@ -109,20 +113,27 @@ def test_the_work_budget_counts_link_checks_and_stops_the_plan():
     assert full.open == {} and full.stats["work"] > 0
     # A routes straight (no search, no checks); B's first search spends the budget of one
     # check, so the plan stops there with B open for want of budget
-    short = Negotiator(board, LAYERS, rules, connections, restarts=0, budget_work=1).run()
+    short = Negotiator(board, LAYERS, rules, connections, restarts=0, budget_work=1,
+                       repair_work=0).run()
     assert short.open == {1: "budget"} and sorted(short.wires) == [0]
     assert 1 <= short.stats["work"] < full.stats["work"]
     assert short.stats["route_calls"] < full.stats["route_calls"]
-    again = Negotiator(board, LAYERS, rules, connections, restarts=0, budget_work=1).run()
+    again = Negotiator(board, LAYERS, rules, connections, restarts=0, budget_work=1,
+                       repair_work=0).run()
     assert again.wires == short.wires and again.stats == short.stats
+    # the repair's work is its own: after the rounds' budget is spent, it still places B
+    repaired = Negotiator(board, LAYERS, rules, connections, restarts=0, budget_work=1).run()
+    assert repaired.open == {} and repaired.stats["repaired"] == 1
+    assert repaired.stats["work"] > short.stats["work"]
 
 
 class _Scripted(Negotiator):
     """The negotiation's rounds with each round's outcome given (rip-ups and open
-    connections per round), to follow the orders of the later rounds."""
+    connections per round), to follow the orders of the later rounds (no repair after them:
+    its wires are not real)."""
 
     def __init__(self, script, *args, **kwargs):
-        super().__init__(*args, **kwargs)
+        super().__init__(*args, **{"repair_work": 0, **kwargs})
         self.script, self.orders = list(script), []
 
     def _round(self, order):
@@ -191,3 +202,35 @@ def test_budget_is_the_cause_only_where_the_budget_ran_out():
     assert plan._cause(1, "budget") == "congestion"  # B has a way on the bare board
     spent = Negotiator(board, LAYERS, rules, connections, restarts=0, budget_routes=0)
     assert spent._cause(1, "budget") == "budget"
+
+
+def test_the_repair_lays_an_open_connection_through_planned_copper_and_places_it_again():
+    """Rounds that may not rip up (max_rips 0, one round) leave B open behind A; the repair
+    lays B through gate 1, rips A up and sends A through gate 2, as a rip-up in the rounds
+    would."""
+    board, connections, rules = gates_board()
+    plan = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=0).run()
+    assert sorted(plan.wires) == [0, 1] and plan.open == {}
+    assert plan.stats["repaired"] == 1 and plan.stats["rounds"] == 1
+    assert max(y for _, y in plan.wires[0].legs[0][1]) > mm(26)  # A through gate 2
+    items = [i for w in plan.wires.values() for i in w.items(rules[w.net], LAYERS)]
+    assert_legal(board, items)
+    again = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=0).run()
+    assert again.wires == plan.wires and again.stats == plan.stats
+
+
+def test_a_repair_may_change_which_connection_is_open_once_never_their_number():
+    """Gate 2 closed: one crossing for two nets. The rounds route A (the shorter) and leave B
+    open; the repair lays B through A's copper and A finds no way back: one open either way,
+    so the attempt is kept (B moved) and A is open. A's own attempt would leave B open
+    again, and B has moved once: undone. The plan never swings back and forth."""
+    board, connections, rules = gates_board()
+    closed = BoardGeometry(board.outline, board.copper + (wall(26.6, 27.4),),
+                           board.edge_clearance)
+    rounds = Negotiator(closed, LAYERS, rules, connections, restarts=0, repair_work=0).run()
+    assert sorted(rounds.wires) == [0] and rounds.open == {1: "congestion"}
+    plan = Negotiator(closed, LAYERS, rules, connections, restarts=0).run()
+    assert sorted(plan.wires) == [1] and plan.open == {0: "congestion"}
+    assert plan.stats["repaired"] == 0 and plan.stats["work"] > rounds.stats["work"]
+    items = [i for w in plan.wires.values() for i in w.items(rules[w.net], LAYERS)]
+    assert_legal(closed, items)
