@@ -65,8 +65,8 @@ class LayeredRequest:
     holes: tuple[tuple[Point, int], ...] = ()
     #: The weight of the A* heuristic (the octilinear distance to the goal): 1 finds the
     #: cheapest way; more expands fewer nodes for a way at most that many times as dear (the
-    #: planner's repair uses it for its rip-up searches, whose prices make the distance a weak
-    #: guide).
+    #: planner's repair uses it for its layered searches: the prices of its rip-up searches
+    #: make the distance a weak guide).
     heuristic_weight: float = 1.0
 
 

@@ -262,7 +262,6 @@ class Negotiator:
         finally:
             fixed.budget_nodes, fixed.budget_checks = searches
             self.max_rips, self._weight = max_rips, 1.0
-        self._load(wires)
         return Plan(wires, open_, plan.stats)
 
     def _attempt(self, index: int, wires: dict[int, Wire]
