@@ -27,8 +27,11 @@ when that order repeats one already tried. The best state seen (most connections
 least wire) is then repaired where it left connections open that are not boxed in
 (`Negotiator._repair`, with a budget of its own): each such connection is laid through the
 other connections' copper, every connection it rips up is placed again (ripped at most once),
-and the attempt is kept where it leaves none of them open, or exactly one (the open connection
-changes, once per connection), else undone; the layered searches of the repair weight their
+an attempt that rips up more than `REPAIR_RIPS` is given up, each connection an attempt
+leaves open is settled the same way before the attempt is judged (`REPAIR_DEPTH` levels
+down; a settling is kept where it leaves nothing open), and the attempt is kept where it
+leaves none of them open, or exactly one (the open connection changes, once per connection),
+else undone; the layered searches of the repair weight their
 heuristic (`REPAIR_WEIGHT`), a bounded suboptimal A* that finds long priced ways the rounds'
 searches run out of budget on. That is the plan. Work is counted in route calls
 (`budget_routes`), each search's expansions and link checks, and the link checks of all the
@@ -97,12 +100,15 @@ CAUSES = ("boxed_in", "congestion", "budget")
 ACCESS_STEP = 50_000
 #: The repair after the rounds (`Negotiator._repair`): the link checks and route calls it may
 #: make beyond the rounds', the heuristic weight of its layered searches
-#: (`LayeredRequest.heuristic_weight`) and the search budget of its rip-up searches, in
-#: multiples of the router's.
-REPAIR_WORK = 20_000_000
+#: (`LayeredRequest.heuristic_weight`), the search budget of its rip-up searches, in
+#: multiples of the router's, how many levels down an attempt's fallout is settled before the
+#: attempt is judged (`Negotiator._settle`), and the rip-ups after which an attempt is given up.
+REPAIR_WORK = 40_000_000
 REPAIR_ROUTES = 1000
 REPAIR_WEIGHT = 2.0
 REPAIR_SEARCH = 4
+REPAIR_DEPTH = 1
+REPAIR_RIPS = 16
 
 
 @dataclass(frozen=True)
@@ -153,14 +159,16 @@ class Negotiator:
                  restarts: int = RESTARTS, router_nodes: int | None = None,
                  router_checks: int | None = None, via_cost: int = VIA_COST,
                  rip_price: int = RIP_PRICE, prove_separation: bool = True,
-                 repair_work: int = REPAIR_WORK):
+                 repair_work: int = REPAIR_WORK, repair_depth: int = REPAIR_DEPTH,
+                 repair_rips: int = REPAIR_RIPS):
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
         self.budget, self.max_rips, self.restarts = budget_routes, max_rips, restarts
         self.budget_work = budget_work
         self.via_cost, self.rip_price = via_cost, rip_price
-        self.repair_work = repair_work
+        self.repair_work, self.repair_depth = repair_work, repair_depth
+        self.repair_rips = repair_rips
         self._weight = 1.0  # the layered searches' heuristic weight (more in the repair)
         # the board without planned copper; its searches stop where their ends are proven
         # apart (`WalkaroundRouter.prove_separation`: the same ways, less work)
@@ -224,10 +232,12 @@ class Negotiator:
         """The best round's plan repaired, one open connection at a time (shortest first,
         boxed-in ones left), with `repair_work` more link checks and `REPAIR_ROUTES` more
         route calls than the rounds made: an attempt (`_attempt`) lays the connection through
-        the other connections' copper and places the ones it rips up again. An attempt that
-        leaves none of them open is kept; one that leaves exactly one open is kept too (the
-        open connection changes, their number does not), once per connection that moved so;
-        any other is undone. Passes repeat while one keeps an attempt. So the repair never
+        the other connections' copper and places the ones it rips up again (given up where
+        more than `repair_rips` are ripped up), and what it leaves open is settled the same
+        way (`_settle`, `repair_depth` levels down). An attempt that then leaves none of them
+        open is kept; one that leaves exactly one open is kept too (the open connection
+        changes, their number does not), once per connection that moved so; any other is
+        undone. Passes repeat while one keeps an attempt. So the repair never
         leaves more connections open than the rounds, and a plan the rounds complete has
         none."""
         self.budget_work = self.work + self.repair_work
@@ -247,7 +257,7 @@ class Negotiator:
                         break
                     if index not in open_ or self._boxed(index):
                         continue
-                    attempt = self._attempt(index, wires)
+                    attempt = self._settle(index, wires, self.repair_depth)
                     if attempt is None:
                         continue
                     after, still = attempt
@@ -264,13 +274,38 @@ class Negotiator:
             self.max_rips, self._weight = max_rips, 1.0
         return Plan(wires, open_, plan.stats)
 
+    def _settle(self, index: int, wires: dict[int, Wire], depth: int
+                ) -> tuple[dict[int, Wire], dict[int, str]] | None:
+        """`_attempt` of connection `index` from `wires`; then each connection it left open
+        that is not boxed in (shortest first) is settled the same way from the wires after,
+        `depth - 1` levels down, and that settling is kept where it leaves nothing open: an
+        attempt's fallout (a connection laid through the others often leaves one open that a
+        second attempt lays) is repaired before the attempt is judged. The wires after and the
+        connections still open, as `_attempt` gives them."""
+        attempt = self._attempt(index, wires)
+        if attempt is None or depth <= 0:
+            return attempt
+        after, still = attempt
+        for other in sorted(still, key=lambda i: (self.connections[i].length, i)):
+            if self._spent():
+                break
+            if self._boxed(other):
+                continue
+            settled = self._settle(other, after, depth - 1)
+            if settled is not None and not settled[1]:
+                after = settled[0]
+                del still[other]
+        return after, still
+
     def _attempt(self, index: int, wires: dict[int, Wire]
                  ) -> tuple[dict[int, Wire], dict[int, str]] | None:
         """From the planned `wires`: connection `index` laid by `_place` (its rip-up search
         may cross every other connection's copper), then each connection it ripped up placed
         again by `_place`, each ripped at most once (`max_rips` is 1 in the repair: ripped,
         a connection is hard copper once placed again). The wires after, and the connections
-        left open with their causes; None where `index` found no way."""
+        left open with their causes; None where `index` found no way, or where the attempt
+        has ripped up more than `repair_rips` connections (a cascade of rip-ups that seldom
+        settles: its work is left to other attempts)."""
         self._load(wires)
         self.rips[index] = self.max_rips  # hard copper for the connections it rips up
         queue: deque = deque()
@@ -278,6 +313,8 @@ class Negotiator:
             return None
         failed: dict[int, str] = {}
         while queue and not self._spent():
+            if sum(1 for k, r in enumerate(self.rips) if r and k != index) > self.repair_rips:
+                return None
             other = queue.popleft()
             if other not in self.wires:
                 cause = self._place(other, queue)

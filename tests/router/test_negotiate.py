@@ -204,6 +204,18 @@ def test_budget_is_the_cause_only_where_the_budget_ran_out():
     assert spent._cause(1, "budget") == "budget"
 
 
+def test_a_repair_attempt_that_rips_up_more_than_its_cap_is_given_up():
+    """B's attempt rips A up: with at most 0 rip-ups an attempt is given up and B stays
+    open; with 1 it is laid."""
+    board, connections, rules = gates_board()
+    capped = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=0,
+                        repair_rips=0).run()
+    assert capped.open == {1: "congestion"} and capped.stats["repaired"] == 0
+    one = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=0,
+                     repair_rips=1).run()
+    assert one.open == {} and one.stats["repaired"] == 1
+
+
 def test_the_repair_lays_an_open_connection_through_planned_copper_and_places_it_again():
     """Rounds that may not rip up (max_rips 0, one round) leave B open behind A; the repair
     lays B through gate 1, rips A up and sends A through gate 2, as a rip-up in the rounds
@@ -234,3 +246,60 @@ def test_a_repair_may_change_which_connection_is_open_once_never_their_number():
     assert plan.stats["repaired"] == 0 and plan.stats["work"] > rounds.stats["work"]
     items = [i for w in plan.wires.values() for i in w.items(rules[w.net], LAYERS)]
     assert_legal(closed, items)
+
+
+class _Attempts(Negotiator):
+    """The repair with each attempt's outcome given: per connection, in turn, the connections
+    the attempt rips up and leaves open (None: no way). Records every attempt and the wires it
+    started from."""
+
+    def __init__(self, script, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.script, self.tried = {k: list(v) for k, v in script.items()}, []
+
+    def _boxed(self, index):
+        return False
+
+    def _attempt(self, index, wires):
+        self.tried.append((index, tuple(sorted(wires))))
+        outcome = self.script[index].pop(0)
+        if outcome is None:
+            return None
+        still = {i: "congestion" for i in outcome}
+        after = {k: w for k, w in wires.items() if k not in still}
+        return {**after, index: _wire(index)}, still
+
+
+def _wire(index: int) -> Wire:
+    return Wire("A", (("F.Cu", ((0, 0), (index + 1, 0))),))
+
+
+def _attempts(script, open_, depth):
+    board, connections, rules = gates_board()
+    four = [connections[0]] * 4
+    wires = {i: _wire(i) for i in range(4) if i not in open_}
+    negotiator = _Attempts(script, board, LAYERS, rules, four, repair_depth=depth)
+    plan = negotiator._repair(Plan(dict(wires), {i: "congestion" for i in open_}))
+    return plan, negotiator.tried
+
+
+def test_the_repair_settles_an_attempts_fallout_before_judging_it():
+    """Connection 0's attempt rips 1 and 2 up and cannot place them again: two open for one,
+    undone without settling. Settled one level down (1, then 2, each from the wires after the
+    attempt before), both are laid again and the attempt is kept."""
+    script = {0: [(1, 2)], 1: [()], 2: [()]}
+    plan, tried = _attempts(script, {0}, depth=1)
+    assert plan.open == {} and sorted(plan.wires) == [0, 1, 2, 3]
+    assert tried == [(0, (1, 2, 3)), (1, (0, 3)), (2, (0, 1, 3))]
+    plan, tried = _attempts({0: [(1, 2)]}, {0}, depth=0)
+    assert plan.open == {0: "congestion"} and tried == [(0, (1, 2, 3))]
+
+
+def test_a_settling_is_kept_only_where_it_leaves_nothing_open():
+    """Settling 1 leaves 3 open (not kept), settling 2 leaves none (kept): the attempt leaves
+    1 open for 0, a change of the open connection, kept once; the next pass's attempt on 1
+    finds no way, and the plan keeps one open."""
+    script = {0: [(1, 2)], 1: [(3,), None], 2: [()]}
+    plan, tried = _attempts(script, {0}, depth=1)
+    assert plan.open == {1: "congestion"} and sorted(plan.wires) == [0, 2, 3]
+    assert [i for i, _ in tried] == [0, 1, 2, 1]
