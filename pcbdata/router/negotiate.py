@@ -209,7 +209,7 @@ class Negotiator:
             if not best.open or self._spent() or rounds > self.restarts:
                 break
             if rounds <= OPEN_FIRST:
-                first = sorted(best.open, key=lambda i: (self.connections[i].length, i))
+                first = self._shortest_first(best.open)
                 order = first + [i for i in order if i not in best.open]
                 continue
             if all(self._boxed(i) for i in best.open) or self._spent():
@@ -225,6 +225,10 @@ class Negotiator:
                       "rounds": rounds, "repaired": before - len(best.open),
                       "connections": len(self.connections)}
         return best
+
+    def _shortest_first(self, indices) -> list[int]:
+        """The connections `indices` shortest first, ties in the connections' order."""
+        return sorted(indices, key=lambda i: (self.connections[i].length, i))
 
     # --- the repair ---
 
@@ -252,7 +256,7 @@ class Negotiator:
             kept = True
             while kept and not self._spent():
                 kept = False
-                for index in sorted(open_, key=lambda i: (self.connections[i].length, i)):
+                for index in self._shortest_first(open_):
                     if self._spent():
                         break
                     if index not in open_ or self._boxed(index):
@@ -286,7 +290,7 @@ class Negotiator:
         if attempt is None or depth <= 0:
             return attempt
         after, still = attempt
-        for other in sorted(still, key=lambda i: (self.connections[i].length, i)):
+        for other in self._shortest_first(still):
             if self._spent():
                 break
             if self._boxed(other):
