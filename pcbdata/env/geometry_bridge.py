@@ -1,6 +1,7 @@
 """The board as the walkaround router sees it (`pcbdata.router.geometry.BoardGeometry`): pad
 polygons per layer, tracks, vias and zones from KiCad, each with its net's clearance (a pad:
-its own clearance override where that is larger, which KiCad's DRC holds tracks to)."""
+its own clearance override where that is larger, which KiCad's DRC holds tracks to), and the
+holes that copper of other nets must keep the board's hole clearance from (`_hole_item`)."""
 from __future__ import annotations
 
 from pcbdata.env.types import StaticBoard
@@ -16,7 +17,30 @@ def _pad_items(static: StaticBoard, clearance: dict[str, int], CopperItem) -> li
         for ring, layers in by_shape.items():
             items.append(CopperItem(kind="pad", net=pad.net, layers=tuple(layers), polygon=ring,
                                     clearance=max(clearance.get(pad.net, 0), pad.clearance)))
+        hole = _hole_item(static, pad, max(clearance.get(pad.net, 0), pad.clearance),
+                          CopperItem)
+        if hole is not None:
+            items.append(hole)
     return items
+
+
+def _hole_item(static: StaticBoard, pad, pad_clearance: int, CopperItem):
+    """The pad's hole as an item of its net (a circle of the drill's diameter) on the layers
+    where its copper does not already keep other nets' copper the board's hole clearance
+    from it (KiCad's hole_clearance): every layer for a mounting hole (NPTH: no copper round
+    the hole), none for a plated pad whose narrowest ring plus clearance is at least the hole
+    clearance on all its layers; None where there is no such layer. The item's clearance is
+    the hole clearance (the router keeps the larger of it and the track's own)."""
+    if pad.drill <= 0 or static.hole_clearance <= 0:
+        return None
+    ring = (min(pad.size) - pad.drill) // 2
+    covered = set(pad.polygons) if ring + pad_clearance >= static.hole_clearance else set()
+    layers = tuple(layer for layer in static.layers if layer not in covered)
+    if not layers:
+        return None
+    at = (pad.x, pad.y)
+    return CopperItem(kind="hole", net=pad.net, layers=layers, start=at, end=at,
+                      width=pad.drill, clearance=static.hole_clearance)
 
 
 def _copper_item(record: dict, static: StaticBoard, clearance: dict[str, int], CopperItem):

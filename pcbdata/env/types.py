@@ -82,6 +82,8 @@ class StaticBoard:
     edge_clearance: int
     grid_pitch: int | None  # D1: lattice pitch (nm)
     grid_origin: int | None  # D1: lattice offset (nm), pad centres at origin + k * pitch
+    #: The board setup's hole clearance (nm): copper of other nets keeps this far from a hole.
+    hole_clearance: int = 0
 
     def net_index(self, name: str) -> int:
         try:

@@ -138,6 +138,7 @@ def _static(board) -> dict:
             "zones": zone_records(board, layers), "graphics": graphic_records(board, layers),
             "net_count": int(board.GetNetCount()),
             "edge_clearance": int(settings.m_CopperEdgeClearance),
+            "hole_clearance": int(settings.m_HoleClearance),
             "clearance": int(settings.m_MinClearance)}
 
 

@@ -33,7 +33,9 @@ ARC_MAX_CHORDS = 64
 class CopperItem:
     """One piece of copper on the board, plain data."""
 
-    kind: str  # "pad" | "track" | "arc" | "via" | "zone" | "graphic" (copper drawing, text)
+    #: "pad" | "track" | "arc" | "via" | "zone" | "graphic" (copper drawing, text) | "hole" (a
+    #: drilled hole, `start` its centre and `width` its diameter, kept the hole clearance from)
+    kind: str
     net: str  # net name; "" = no net
     layers: tuple[str, ...]  # copper layers it occupies
     polygon: tuple[tuple[int, int], ...] = ()  # pads, zones: outline (nm), closed implicitly
@@ -72,7 +74,7 @@ def copper_core(item: CopperItem) -> tuple[shapely.Geometry, float]:
         if len(item.polygon) < 3:
             raise ValueError(f"{item.kind} of net {item.net!r} needs a polygon of >= 3 points")
         return shapely.make_valid(shapely.Polygon(item.polygon)), 0.0
-    if item.kind == "via":
+    if item.kind in ("via", "hole"):
         return shapely.Point(_required(item, "start")), item.width / 2
     if item.kind == "track":
         return _segment(_required(item, "start"), _required(item, "end")), item.width / 2

@@ -358,7 +358,7 @@ def _touches(item: CopperItem, point: Point) -> bool:
     inside a via, pad or zone (a point merely within a track's width is not joined)."""
     if item.kind in ("track", "arc"):
         return point in (item.start, item.end)
-    if item.kind == "graphic":
+    if item.kind in ("graphic", "hole"):
         return False
     core, radius = copper_core(item)
     return shapely.distance(core, shapely.Point(point)) <= radius
