@@ -4,38 +4,47 @@ its own clearance override where that is larger, which KiCad's DRC holds tracks 
 holes that copper of other nets must keep the board's hole clearance from (`_hole_item`)."""
 from __future__ import annotations
 
+import shapely
+
 from pcbdata.env.types import StaticBoard
 
 
 def _pad_items(static: StaticBoard, clearance: dict[str, int], CopperItem) -> list:
     items = []
+    least = min(clearance.values(), default=0)  # no request keeps less from a pad
     for pad in static.pads:
         by_shape: dict[tuple, list[str]] = {}
         for layer, rings in sorted(pad.polygons.items()):
             for ring in rings:
                 by_shape.setdefault(tuple(tuple(p) for p in ring), []).append(layer)
+        own = max(clearance.get(pad.net, 0), pad.clearance)
         for ring, layers in by_shape.items():
             items.append(CopperItem(kind="pad", net=pad.net, layers=tuple(layers), polygon=ring,
-                                    clearance=max(clearance.get(pad.net, 0), pad.clearance)))
-        hole = _hole_item(static, pad, max(clearance.get(pad.net, 0), pad.clearance),
-                          CopperItem)
+                                    clearance=own))
+        hole = _hole_item(static, pad, max(least, own), CopperItem)
         if hole is not None:
             items.append(hole)
     return items
 
 
-def _hole_item(static: StaticBoard, pad, pad_clearance: int, CopperItem):
+def _hole_item(static: StaticBoard, pad, kept: int, CopperItem):
     """The pad's hole as an item of its net (a circle of the drill's diameter) on the layers
     where its copper does not already keep other nets' copper the board's hole clearance
-    from it (KiCad's hole_clearance): every layer for a mounting hole (NPTH: no copper round
-    the hole), none for a plated pad whose narrowest ring plus clearance is at least the hole
-    clearance on all its layers; None where there is no such layer. The item's clearance is
-    the hole clearance (the router keeps the larger of it and the track's own)."""
+    from it (KiCad's hole_clearance), or None where there is no such layer. Other nets'
+    copper keeps at least `kept` (the pad's item clearance, or the board's smallest net
+    clearance if larger: the router holds a request to the larger of its own and the pad's) from the
+    pad's copper on a layer, so the hole is covered there when the pad's copper reaches
+    `hole_clearance - kept` beyond the hole all round: a plated pad with a ring that wide
+    needs no item; a mounting hole (NPTH: its pad is the bare hole) gets one on every layer.
+    The item's clearance is the hole clearance (the router keeps the larger of it and the
+    track's own, which errs outwards)."""
     if pad.drill <= 0 or static.hole_clearance <= 0:
         return None
-    ring = (min(pad.size) - pad.drill) // 2
-    covered = set(pad.polygons) if ring + pad_clearance >= static.hole_clearance else set()
-    layers = tuple(layer for layer in static.layers if layer not in covered)
+    centre = shapely.Point(pad.x, pad.y)
+    reach = pad.drill / 2 + static.hole_clearance - kept  # copper must reach this far
+    layers = tuple(layer for layer in static.layers if not any(
+        polygon.contains(centre) and polygon.exterior.distance(centre) >= reach
+        for polygon in (shapely.Polygon(ring) for ring in pad.polygons.get(layer, ()))))
     if not layers:
         return None
     at = (pad.x, pad.y)
