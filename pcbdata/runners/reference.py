@@ -28,8 +28,11 @@ DEFAULT_AGENT = AGENTS[0]
 #: As the benchmark's protocol (@5): the reference is within the agent's reach at k = 5.
 DEFAULT_ROLLOUTS = 5
 MAX_ROLLOUTS = 100
-#: The routing environment's options, as `pcbdata rollout` leaves them by default.
-ENV_OPTIONS = {"drc": "step", "max_steps": None}
+#: The routing environment's options: the default step limit, and KiCad's DRC once, at the end.
+#: The bundled agents do not read the DRC, so an episode is the one `pcbdata rollout` runs
+#: with its default DRC after every step, and its saved board the same bytes, at a fraction of
+#: the time (`tests/builds/test_reference.py`).
+ENV_OPTIONS = {"drc": "terminal", "max_steps": None}
 
 
 def plan(agent: str = DEFAULT_AGENT, rollouts: int = DEFAULT_ROLLOUTS,

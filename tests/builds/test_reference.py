@@ -1,6 +1,7 @@
 """Router-found reference routings of `pcbdata build d2r --reference-agent` (real KiCad, d2r-a
 test boards, about a second each to route): the references pass the build's KiCad check and
-score CP 1; a rebuild gives the same bytes; a build run again routes nothing it routed; boards
+score CP 1; each is the board `pcbdata rollout` writes (DRC after every step) byte for byte; a
+rebuild gives the same bytes; a build run again routes nothing it routed; boards
 not completed or whose worker failed stay, with the reason; `eval --reference` scores the
 boards that have one and counts the others; bad option values are one-line errors."""
 from __future__ import annotations
@@ -44,7 +45,7 @@ def routed(tmp_path_factory):
 def test_references_are_kept_with_their_origin(routed):
     split = _config(routed)["splits"]["test"]
     assert split["reference_routing"] == {
-        "agent": "negotiated", "rollouts": 2, "env_options": {"drc": "step", "max_steps": None},
+        "agent": "negotiated", "rollouts": 2, "env_options": {"drc": "terminal", "max_steps": None},
         "env_version": 2, "boards": 2, "routed": 2, "not_completed": 0, "engine_failure": 0,
         "check_failed": 0}
     for board_id, board in split["boards"].items():
@@ -72,6 +73,19 @@ def test_references_pass_the_kicad_check(routed):
                 "pcbdata.kicad.basics:drc", str(path), str(path.parent / "board.kicad_pro"),
                 str(path.parent / "board.kicad_dru")))
             assert not report.unconnected and check_problem(report, 0) is None, path
+
+
+def test_a_reference_is_the_board_pcbdata_rollout_writes_with_a_drc_after_every_step(
+        routed, tmp_path):
+    """The build's rollouts run KiCad's DRC once, at the end; `pcbdata rollout` by default
+    after every step. The agents do not read it: the same board, byte for byte."""
+    runs = tmp_path / "runs"
+    assert main(["rollout", str(routed), "--config", "d2r-a", "--split", "test", "--agent",
+                 "negotiated", "--rollouts", "1", "--workers", "1", "--out", str(runs)]) == 0
+    for board_id, board in _config(routed)["splits"]["test"]["boards"].items():
+        assert board["reference_routing"]["seed"] == 0
+        assert (runs / board_id / "0.kicad_pcb").read_bytes() == (
+            routed / "d2r-a" / "test" / board_id / REFERENCE_FILE).read_bytes()
 
 
 def test_a_rebuild_gives_the_same_bytes(routed, tmp_path):
