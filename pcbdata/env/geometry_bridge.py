@@ -28,16 +28,13 @@ def _pad_items(static: StaticBoard, clearance: dict[str, int], CopperItem) -> li
 
 
 def _hole_item(static: StaticBoard, pad, kept: int, CopperItem):
-    """The pad's hole as an item of its net (a circle of the drill's diameter) on the layers
-    where its copper does not already keep other nets' copper the board's hole clearance
-    from it (KiCad's hole_clearance), or None where there is no such layer. Other nets'
-    copper keeps at least `kept` (the pad's item clearance, or the board's smallest net
-    clearance if larger: the router holds a request to the larger of its own and the pad's) from the
-    pad's copper on a layer, so the hole is covered there when the pad's copper reaches
-    `hole_clearance - kept` beyond the hole all round: a plated pad with a ring that wide
-    needs no item; a mounting hole (NPTH: its pad is the bare hole) gets one on every layer.
-    The item's clearance is the hole clearance (the router keeps the larger of it and the
-    track's own, which errs outwards)."""
+    """The pad's hole as an item of its net (a disc of the drill's diameter, the board's hole
+    clearance as its clearance) on the layers where the pad's copper does not already keep
+    other nets that far from the hole (KiCad's hole_clearance); None where it does on all.
+    Other nets' copper keeps at least `kept` from the pad's copper (the router holds a request
+    to the larger of its own clearance and the pad's), so a layer is covered where the pad's
+    copper reaches `hole_clearance - kept` beyond the hole all round: a plated pad with a ring
+    that wide needs no item, a mounting hole (NPTH: the bare hole) gets one on every layer."""
     if pad.drill <= 0 or static.hole_clearance <= 0:
         return None
     centre = shapely.Point(pad.x, pad.y)

@@ -30,4 +30,4 @@ def static_board(board_id: str, raw: dict, spec: ConfigSpec) -> StaticBoard:
                        zones=tuple(raw["zones"]), graphics=tuple(raw["graphics"]),
                        net_count=raw["net_count"],
                        edge_clearance=raw["edge_clearance"], grid_pitch=pitch,
-                       grid_origin=origin, hole_clearance=raw.get("hole_clearance", 0))
+                       grid_origin=origin, hole_clearance=raw["hole_clearance"])

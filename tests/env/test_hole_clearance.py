@@ -71,21 +71,11 @@ def test_the_router_keeps_a_track_the_hole_clearance_from_a_mounting_hole():
 
 @pytest.fixture(scope="module")
 def mounting_hole_boards(tmp_path_factory) -> Path:
-    """d2r-b test boards 88 and 116 (each with four mounting holes), as the build writes them."""
-    from pcbdata.model.kicad_writer import board_files
-    from pcbdata.sets.configs import get_config
-    from pcbdata.testing.sets import seal_set
+    """The first 117 d2r-b test boards as the build writes them (88 and 116 each have four
+    mounting holes)."""
+    from pcbdata.testing.sets import write_set
 
-    root = tmp_path_factory.mktemp("holes")
-    spec = get_config("d2r-b")
-    generator = spec.generator()
-    for index in (88, 116):
-        instance = generator.generate(spec.seed, "test", index)
-        folder = root / "d2r-b" / "test" / instance.board_id
-        folder.mkdir(parents=True)
-        for name, text in board_files(instance.board).items():
-            (folder / name).write_text(text, encoding="utf-8")
-    return seal_set(root)
+    return write_set(tmp_path_factory.mktemp("holes"), "d2r-b", "test", 117)
 
 
 @pytest.mark.parametrize("board_id", ["board_00088", "board_00116"])
