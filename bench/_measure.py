@@ -75,3 +75,19 @@ def report(result: dict, json_path: str | None) -> None:
     if json_path:
         Path(json_path).parent.mkdir(parents=True, exist_ok=True)
         Path(json_path).write_text(text + "\n")
+
+
+def board_arguments(parser) -> None:
+    """The arguments of a benchmark over one split of a built set: SET, --config, --split and
+    --boards (`chosen_boards`)."""
+    parser.add_argument("set")
+    parser.add_argument("--config", required=True)
+    parser.add_argument("--split", default="test")
+    parser.add_argument("--boards", nargs="*", help="board ids or name endings (default: all)")
+
+
+def chosen_boards(names: list[str], boards: list[str] | None) -> list[str]:
+    """`names` whose name is, or ends with, one of `boards` (all of them without `boards`)."""
+    if not boards:
+        return names
+    return [n for n in names if any(n == b or n.endswith(b) for b in boards)]

@@ -11,7 +11,9 @@ exists (`WalkaroundRouter.prove_separation`, the planner's default) and without 
 plans where the budget is not reached, the work and the time apart. `--repair` plans each board
 with the repair after the rounds (`Negotiator._repair`, the default) and without it
 (`repair_work=0`): the same plans where the rounds complete them, and what the repair adds
-elsewhere.
+elsewhere. `--budget-work` and `--repair-work` give every plan smaller budgets: level c boards
+spend the whole default budget, minutes a board, and a smaller one compares two versions of
+the code on the same counted work (run this file from each version's checkout).
 """
 from __future__ import annotations
 
@@ -53,11 +55,10 @@ def plan_once(env, board_id: str, **options) -> dict:
 
 
 def main(argv: list[str] | None = None) -> None:
+    from _measure import board_arguments, chosen_boards
+
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("set")
-    parser.add_argument("--config", required=True)
-    parser.add_argument("--split", default="test")
-    parser.add_argument("--boards", nargs="*", help="board ids or name endings (default: all)")
+    board_arguments(parser)
     pair = parser.add_mutually_exclusive_group()
     pair.add_argument("--both", action="store_true",
                       help="each board compiled, then with PCBDATA_NO_NUMBA=1")
@@ -65,12 +66,16 @@ def main(argv: list[str] | None = None) -> None:
                       help="each board with the searches' proofs, then without them")
     pair.add_argument("--repair", action="store_true",
                       help="each board with the repair after the rounds, then without it")
+    parser.add_argument("--budget-work", type=int, default=None,
+                        help="the plans' work budget (default: the planner's, BUDGET_WORK)")
+    parser.add_argument("--repair-work", type=int, default=None,
+                        help="the repair's work budget (default: the planner's, REPAIR_WORK)")
     parser.add_argument("--json", help="write the rows and the machine here")
     args = parser.parse_args(argv)
+    budgets = {k: v for k, v in (("budget_work", args.budget_work),
+                                 ("repair_work", args.repair_work)) if v is not None}
     folder = Path(args.set) / args.config / args.split
-    ids = sorted(p.name for p in folder.iterdir() if p.is_dir())
-    if args.boards:
-        ids = [i for i in ids if any(i == b or i.endswith(b) for b in args.boards)]
+    ids = chosen_boards(sorted(p.name for p in folder.iterdir() if p.is_dir()), args.boards)
     env = pcbdata.env.make(args.set, args.config, split=args.split, drc="terminal")
     rows = []
     started = time.strftime("%Y-%m-%dT%H:%M+00:00", time.gmtime())
@@ -83,7 +88,7 @@ def main(argv: list[str] | None = None) -> None:
             for form in forms:
                 if args.both:
                     os.environ["PCBDATA_NO_NUMBA"] = "1" if form == "reference" else "0"
-                options = OPTIONS.get(form, {})
+                options = {**budgets, **OPTIONS.get(form, {})}
                 row[form] = plan_once(env, board_id, **options)
             if len(forms) == 2:
                 row["same_plan"] = row[forms[0]]["digest"] == row[forms[1]]["digest"]

@@ -27,7 +27,7 @@ from pcbdata.kicad.board_reading import (
     track_record,
     zone_records,
 )
-from pcbdata.kicad.scoring import clusters_per_net, copper_labels, copper_totals
+from pcbdata.kicad.scoring import clusters_per_net, copper_labels, totals_of
 from pcbdata.kicad.step_drc import is_uncounted_warning, static_violations, step_project_text
 
 #: The one board of this worker: {"board", "layers": {name: id}, "pads": [PAD], "path"}.
@@ -106,13 +106,15 @@ def open_instance(board: str, project: str, rules: str | None, stage_dir: str,
     loaded = _load(_stage(board, project, rules, stage_dir), board)
     layers = {loaded.GetLayerName(i): int(i) for i in loaded.GetEnabledLayers().CuStack()}
     _STATE.update(board=loaded, layers=layers, pads=list(loaded.GetPads()), applies=1,
-                  counted_warnings=frozenset(counted_warnings), static_violations=[])
+                  counted_warnings=frozenset(counted_warnings), static_violations=[],
+                  links={}, records={})
     first = snapshot(True)
     step_text = step_project_text(_read(project), _STATE["counted_warnings"],
                                   _read(rules) if rules else None)
     if step_text is not None:
         _STATE["static_violations"] = static_violations(first["violations"])
         _use_project(loaded, step_text, stage_dir)
+        _STATE.update(links={}, records={})  # asked again under the step project
     return {"static": _static(loaded), "snapshot": first}
 
 
@@ -150,16 +152,36 @@ def snapshot(drc: bool = False) -> dict:
     tracks, pads = list(board.GetTracks()), _STATE["pads"]
     # One clustering gives the env's labels and the evaluator's per-net counts (`pad_clusters`
     # is the same function over the same items), so finish targets and U agree with `eval`.
-    labels = copper_labels(board, pads + tracks + list(board.Zones()))
+    labels = copper_labels(board, pads + tracks + list(board.Zones()), _STATE["links"])
     npads = len(pads)
-    names = {lid: name for name, lid in _STATE["layers"].items()}
-    wl_mm, vias = copper_totals(board)
-    return {"copper": [track_record(t, names, labels[npads + i]) for i, t in enumerate(tracks)],
+    copper = _records(tracks)
+    for i, record in enumerate(copper):
+        record["cluster"] = labels[npads + i]
+    wl_mm, vias = totals_of((r["kind"], r.get("start"), r.get("end"), r.get("mid"))
+                            for r in copper)
+    return {"copper": copper,
             "pad_cluster": labels[:npads], "clusters": clusters_per_net(pads, labels[:npads]),
             "wl_mm": wl_mm,
             "vias": vias, "net_count": int(board.GetNetCount()),
             "unconnected": int(board.GetConnectivity().GetUnconnectedCount(False)),
             "violations": _violations(board) if drc else None}
+
+
+def _records(tracks: list) -> list[dict]:
+    """`track_record` of each track (cluster 0: the caller sets it), new dicts every call;
+    a track's record is remembered by its KiCad id and net, since the worker never moves an
+    item (edits add and delete), unless the ids are not distinct."""
+    names = {lid: name for name, lid in _STATE["layers"].items()}
+    ids = [t.m_Uuid.AsString() for t in tracks]
+    memory: dict = _STATE["records"] if len(set(ids)) == len(ids) else {}
+    out = []
+    for uid, track in zip(ids, tracks):
+        net = track.GetNetCode()
+        known = memory.get(uid)
+        if known is None or known[0] != net:
+            known = memory[uid] = (net, track_record(track, names, 0))
+        out.append(dict(known[1]))
+    return out
 
 
 def _violations(board) -> list[dict]:
@@ -336,6 +358,26 @@ def _net_copper(board, track) -> dict:
             copper["polygons"] += polygon_rings(pad.GetEffectivePolygon(layer,
                                                                         pcbnew.ERROR_INSIDE))
     return copper
+
+
+def copper_edits(path: str, stage_dir: str) -> list[dict]:
+    """The straight tracks and vias of the board at `path` (a routed board, read from a copy
+    in `stage_dir`: KiCad writes lock files beside what it loads) as `apply` edits, in the
+    board's order: laying a routing again on its instance, for tests and benchmarks."""
+    pcbnew = _pcbnew()
+    loaded = _load(shutil.copy(path, os.path.join(_new_folder(stage_dir), BOARD_FILE)), path)
+    edits = []
+    for item in loaded.GetTracks():
+        net = str(item.GetNetname())
+        if item.Type() == pcbnew.PCB_VIA_T:
+            edits.append({"kind": "via", "net": net, "at": _xy(item.GetPosition()),
+                          "diameter": int(item.GetWidth(item.TopLayer())),
+                          "drill": int(item.GetDrillValue())})
+        elif item.Type() == pcbnew.PCB_TRACE_T:
+            edits.append({"kind": "track", "net": net, "width": int(item.GetWidth()),
+                          "layer": str(loaded.GetLayerName(item.GetLayer())),
+                          "points": [_xy(item.GetStart()), _xy(item.GetEnd())]})
+    return edits
 
 
 def save(path: str) -> str:

@@ -346,16 +346,29 @@ def fingerprint(board, folder: str) -> dict[str, list[str]]:
 
 # ---- measurements on the transplanted board ---------------------------------------------------
 
-def copper_labels(board, items: list) -> list[int]:
+def copper_labels(board, items: list, memory: dict | None = None) -> list[int]:
     """A cluster label per item of `items` (pads, tracks, vias, zones): items with one label
     are joined by copper of their net, as KiCad's connectivity links them. Labels count up in
     `items` order; an item without a net gets a label of its own.
 
     Every link touches a track, via or zone, except pad-to-pad contact: tracks and zones ask
-    for both kinds of neighbours, pads only for pads (the same links, found once)."""
+    for both kinds of neighbours, pads only for pads (the same links, found once).
+
+    `memory` (a dict kept between calls on one board whose items are only ever added and
+    deleted, never moved) remembers, by KiCad id, what pads, tracks and vias asked and their
+    net then: a link between two items does not change while both stand on their nets, and
+    one to a newer item is found when the newer item asks, so only new items, items whose net
+    changed (KiCad gives net-less copper the net of a pad it touches) and zones (whose links
+    reach new tracks from their side only) ask KiCad again; the labels are the same. A board
+    whose items do not have distinct ids asks for everything."""
     pcbnew = _pcbnew()
     conn = board.GetConnectivity()
-    index = {item.m_Uuid.AsString(): i for i, item in enumerate(items)}
+    ids = [item.m_Uuid.AsString() for item in items]
+    nets = [item.GetNetCode() for item in items]
+    index = {uid: i for i, uid in enumerate(ids)}
+    if len(index) != len(items):
+        memory = None
+    kept = (pcbnew.PCB_PAD_T, pcbnew.PCB_TRACE_T, pcbnew.PCB_VIA_T, pcbnew.PCB_ARC_T)
     parent = list(range(len(items)))
 
     def find(i: int) -> int:
@@ -365,18 +378,30 @@ def copper_labels(board, items: list) -> list[int]:
         return i
 
     for i, item in enumerate(items):
-        net = item.GetNetCode()
-        if net <= 0:
-            continue
-        neighbours = list(conn.GetConnectedPads(item))
-        if item.Type() != pcbnew.PCB_PAD_T:
-            neighbours += list(conn.GetConnectedTracks(item))
-        for other in neighbours:
-            j = index.get(other.m_Uuid.AsString())
-            if j is not None and other.GetNetCode() == net:
+        known = memory.get(ids[i]) if memory is not None else None
+        if known is not None and known[0] == nets[i]:
+            linked = known[1]
+        else:
+            linked = _linked(conn, pcbnew, item, nets[i])
+            if memory is not None and item.Type() in kept:
+                memory[ids[i]] = (nets[i], linked)
+        for uid in linked:
+            j = index.get(uid)
+            if j is not None and nets[j] == nets[i]:
                 parent[find(i)] = find(j)
     labels: dict[int, int] = {}
     return [labels.setdefault(find(i), len(labels)) for i in range(len(items))]
+
+
+def _linked(conn, pcbnew, item, net: int) -> tuple[str, ...]:
+    """The ids of the items of its net (`net`) that KiCad's connectivity links `item` to (pads
+    for every item, tracks and vias for all but pads); none for an item without a net."""
+    if net <= 0:
+        return ()
+    neighbours = list(conn.GetConnectedPads(item))
+    if item.Type() != pcbnew.PCB_PAD_T:
+        neighbours += list(conn.GetConnectedTracks(item))
+    return tuple(other.m_Uuid.AsString() for other in neighbours if other.GetNetCode() == net)
 
 
 def clusters_per_net(pads: list, pad_labels: list[int]) -> dict[str, int]:
@@ -397,21 +422,35 @@ def pad_clusters(board) -> dict[str, int]:
 
 
 def copper_totals(board) -> tuple[float, int]:
-    """(total length of track segments and arcs in mm, number of vias). Lengths are geometric
-    (an arc from its three points, `copper_geometry.arc_length`, never KiCad's `GetLength()`,
-    which is wrong for nearly straight arcs) and summed exactly (fsum), so the order of the
-    tracks cannot change the last digit."""
+    """(total length of track segments and arcs in mm, number of vias) of the board's copper
+    (`totals_of`)."""
     pcbnew = _pcbnew()
-    lengths, vias = [], 0
+    kinds = {pcbnew.PCB_VIA_T: "via", pcbnew.PCB_ARC_T: "arc", pcbnew.PCB_TRACE_T: "track"}
+    shapes: list[tuple] = []
     for track in board.GetTracks():
-        kind = track.Type()
-        if kind == pcbnew.PCB_VIA_T:
+        kind = kinds.get(track.Type())
+        if kind == "via":
+            shapes.append(("via", None, None, None))
+        elif kind is not None:
+            shapes.append((kind, _xy(track.GetStart()), _xy(track.GetEnd()),
+                           _xy(track.GetMid()) if kind == "arc" else None))
+    return totals_of(shapes)
+
+
+def totals_of(shapes) -> tuple[float, int]:
+    """(total length in mm, number of vias) of (kind, start, end, mid) shapes in nm, kind
+    "track", "arc" or "via". Lengths are geometric (an arc from its three points,
+    `copper_geometry.arc_length`, never KiCad's `GetLength()`, which is wrong for nearly
+    straight arcs) and summed exactly (fsum), so the order of the tracks cannot change the
+    last digit."""
+    lengths, vias = [], 0
+    for kind, start, end, mid in shapes:
+        if kind == "via":
             vias += 1
-        elif kind == pcbnew.PCB_ARC_T:
-            lengths.append(arc_length(_xy(track.GetStart()), _xy(track.GetMid()),
-                                      _xy(track.GetEnd())))
-        elif kind == pcbnew.PCB_TRACE_T:
-            lengths.append(math.dist(_xy(track.GetStart()), _xy(track.GetEnd())))
+        elif kind == "arc":
+            lengths.append(arc_length(start, mid, end))
+        else:
+            lengths.append(math.dist(start, end))
     return math.fsum(lengths) / 1e6, vias
 
 

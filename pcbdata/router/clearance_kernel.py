@@ -212,6 +212,29 @@ def _inside(px, py, pieces, start, end):
 
 
 @_jit
+def _box_off_line(ax, ay, bx, by, x0, y0, x1, y1, reach):
+    """Whether the box [x0, x1] x [y0, y1] lies wholly on one side of the line through a-b,
+    at least `reach` from it (then it is at least that far from the segment, and from
+    anything inside the box): a pair the boxes' test passes beside a long diagonal segment."""
+    dx = bx - ax
+    dy = by - ay
+    length = math.sqrt(dx * dx + dy * dy)
+    if length <= 0.0:
+        return False
+    nx = -dy / length
+    ny = dx / length
+    c = nx * ax + ny * ay
+    lo = np.inf
+    hi = -np.inf
+    for px in (x0, x1):
+        for py in (y0, y1):
+            v = nx * px + ny * py - c
+            lo = min(lo, v)
+            hi = max(hi, v)
+    return lo >= reach or hi <= -reach
+
+
+@_jit
 def _pair_status(i, ax, ay, bx, by, lox, loy, hix, hiy, pieces, start, end, kinds, box, need,
                  margin):
     """0 clear, 1 violating, 2 unsure for the segment a-b and item i."""
@@ -221,6 +244,9 @@ def _pair_status(i, ax, ay, bx, by, lox, loy, hix, hiy, pieces, start, end, kind
     reach = limit + margin  # boxes apart by more than the allowed distance
     if box[i, 0] - hix >= reach or lox - box[i, 2] >= reach or \
             box[i, 1] - hiy >= reach or loy - box[i, 3] >= reach:
+        return 0
+    if end[i] - start[i] > 2 and _box_off_line(ax, ay, bx, by, box[i, 0], box[i, 1],
+                                               box[i, 2], box[i, 3], reach):
         return 0
     if kinds[i] == 2:
         return 2

@@ -303,30 +303,43 @@ class _Layered:
         if not len(targets):
             return
         before = graph.checks
-        clear = graph._links_clear(i, targets)
+        priced = bool(self.soft) and not self.soft[k].empty
+        variants = graph._links_clear(i, targets, variants=True)
+        clear = variants.any(axis=0)
         reached = targets[clear]
         self.checks += graph.checks - before
         graph.checks = before
         new = cost[clear]
-        if self.soft and not self.soft[k].empty:
-            new = new + self._link_prices(k, graph, i, reached)[0]
+        if priced:
+            new = new + self._link_prices(k, graph, i, reached, variants[:, clear])[0]
             better = new < g[offset + reached]
             reached, new = reached[better], new[better]
         g[offset + reached] = new
         parent[offset + reached] = offset + i
 
-    def _link_prices(self, k: int, graph: _LayerGraph, i: int, targets: np.ndarray):
+    def _link_prices(self, k: int, graph: _LayerGraph, i: int, targets: np.ndarray,
+                     clear: np.ndarray | None = None):
         """Per target, the lower price of the two link variants from node i (inf where a
-        variant is blocked by hard copper) and which variant that is."""
+        variant is blocked by hard copper) and which variant that is. `clear` (2, n), where
+        the expansion knows it already (`_Search._links_clear`): whether each variant is
+        clear of hard copper; only those variants' segments are priced (a segment's price
+        does not depend on the others), the same prices for less work."""
         a, ends = graph.nodes[i].astype(float), graph.nodes[targets].astype(float)
         prices = np.full((2, len(targets)), np.inf)
         for variant in (0, 1):
             segments, owner = _link_segments(a, ends, variant)
-            hard = graph.rules.failing(segments)
             self.checks += len(segments)
-            total = np.bincount(owner, weights=self.soft[k].prices(segments),
-                                minlength=len(targets)).astype(float)
-            total[np.bincount(owner, weights=hard, minlength=len(targets)) > 0] = np.inf
+            if clear is None:
+                hard = graph.rules.failing(segments)
+                blocked = np.bincount(owner, weights=hard, minlength=len(targets)) > 0
+            else:
+                blocked = ~clear[variant]
+            open_ = ~blocked[owner]
+            paid = np.zeros(len(segments))
+            if open_.any():
+                paid[open_] = self.soft[k].prices(segments[open_])
+            total = np.bincount(owner, weights=paid, minlength=len(targets)).astype(float)
+            total[blocked] = np.inf
             prices[variant] = total
         return prices.min(axis=0), prices.argmin(axis=0)
     def _finish(self, graphs, offsets, layer_of, parent, u: int) -> LayeredResult:

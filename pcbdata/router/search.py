@@ -150,9 +150,12 @@ class _Search:
                 g[reached] = cost[clear]
                 parent[reached] = v
 
-    def _links_clear(self, v: int, targets: np.ndarray) -> np.ndarray:
+    def _links_clear(self, v: int, targets: np.ndarray, variants: bool = False
+                     ) -> np.ndarray:
         """Whether a clear straight or one-bend link joins node v to each target node (both
-        one-bend variants are checked in one batch: fewer, larger geometry calls are faster).
+        one-bend variants are checked in one batch: fewer, larger geometry calls are faster);
+        with `variants`, (2, n): whether variant 0 / 1 of each link is clear (an octilinear
+        link is the same segment in both).
 
         Variants the ray screen proves blocked skip the exact test; the answer is the same."""
         a, ends = self.nodes[v], self.nodes[targets]
@@ -167,7 +170,7 @@ class _Search:
         links = _LinkBatch(a, ends, maybe, self.compiled)
         if len(links.segments):
             links.judge(self.rules.failing(links.segments))
-        return links.clear
+        return links.variants if variants else links.clear
 
     def _screen_pays(self) -> bool:
         """Whether the screen still rules out enough to be worth its rays (on open boards
@@ -325,12 +328,14 @@ class _LinkBatch:
     """The segments of the link variants still in question from node a to each end, each
     segment once: an octilinear link is one segment, the same in both variants.
 
-    `judge(failing)` takes the exact verdict per segment; `clear` then says, per end, whether
-    a variant of its link is clear (a variant ruled out before counts as blocked)."""
+    `judge(failing)` takes the exact verdict per segment; `variants` then says, per variant
+    and end, whether that variant of the link is clear, and `clear`, per end, whether one of
+    them is (a variant ruled out before counts as blocked)."""
 
     def __init__(self, a: np.ndarray, ends: np.ndarray, maybe: np.ndarray,
                  compiled: bool = False):
         self.clear = np.zeros(len(ends), dtype=bool)
+        self.variants = np.zeros((2, len(ends)), dtype=bool)
         if compiled:  # the same segments, in one compiled pass (`search_kernel`)
             self.segments, self.direct, *self.bent = search_kernel._batch_segments(a, ends,
                                                                                    maybe)
@@ -353,10 +358,12 @@ class _LinkBatch:
     def judge(self, failing: np.ndarray) -> None:
         at = len(self.direct)
         self.clear[self.direct] = ~failing[:at]
+        self.variants[:, self.direct] = ~failing[:at]
         for k in (0, 1):
             count = len(self.bent[k])
             ok = ~(failing[at : at + count] | failing[at + count : at + 2 * count])
             self.clear[self.bent[k]] |= ok
+            self.variants[k, self.bent[k]] = ok
             at += 2 * count
 
 

@@ -65,8 +65,11 @@ class SoftLayer:
             keep = ~unsure
             keep[unsure] = close < rules.need[item[unsure]]
             seg, item = seg[keep], item[keep]
-        pairs = np.unique(np.stack([seg, self.owner[item]], axis=1), axis=0).reshape(-1, 2)
-        return pairs[:, 0], pairs[:, 1]
+        # (segment, owner) pairs as one sortable code, segment first: a 1-D unique is cheap
+        owner = self.owner[item]
+        span = int(owner.max()) + 1 if len(owner) else 1
+        codes = np.unique(seg.astype(np.int64) * span + owner)
+        return codes // span, codes % span
 
     def prices(self, segments: np.ndarray) -> np.ndarray:
         """Per segment, the summed prices of the owners it comes too close to."""

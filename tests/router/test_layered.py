@@ -150,3 +150,46 @@ def test_holes_keep_via_spots_off_drilled_copper_the_board_lacks():
     assert router.route_layers(far) is router.route_layers(request())  # one remembered answer
     same = router.route_layers(request(holes=((first, 600_000),)))  # on the via's very point
     assert first in same.vias
+
+
+def test_priced_links_reuse_the_expansions_verdicts_with_the_same_answers(monkeypatch):
+    """A rip-up search prices only the link variants its expansion found clear of hard
+    copper (`_Layered._link_prices` with `clear`): on a busy board, with soft copper of several
+    owners, its ways, vias and counted work are those of pricing every variant from scratch."""
+    import numpy as np
+
+    from pcbdata.router import layered
+    from pcbdata.router.soft import SoftCopper
+
+    rng = np.random.default_rng(3)
+    hard, soft = [], []
+    for k in range(70):
+        x, y = rng.uniform(3, 27, 2)
+        dx, dy = rng.uniform(-4, 4, 2)
+        item = CopperItem("track", "GND" if k % 2 else f"S{k % 7}", (LAYERS[k % 4 // 2],),
+                          start=(round(x * MM), round(y * MM)),
+                          end=(round((x + dx) * MM), round((y + dy) * MM)),
+                          width=300_000, clearance=CLEARANCE)
+        (hard if k % 3 == 0 else soft).append(item)
+    board = BoardGeometry(OUTLINE, (*walled_board().copper[3:], *hard), 300_000)
+    prices = SoftCopper(tuple(soft), tuple(int(i.net[1:]) if i.net != "GND" else 9
+                                           for i in soft),
+                        {o: 3_000_000.0 + o for o in (*range(7), 9)})
+    calls = {"with": 0}
+    original = layered._Layered._link_prices
+
+    def counting(self, k, graph, i, targets, clear=None):
+        calls["with"] += clear is not None and bool((~clear).any())
+        return original(self, k, graph, i, targets, clear)
+
+    monkeypatch.setattr(layered._Layered, "_link_prices", counting)
+    req = request()
+    reused = WalkaroundRouter(board).route_layers(req, prices)
+    assert reused.legs is not None and calls["with"] > 0  # some variants were blocked
+    monkeypatch.setattr(layered._Layered, "_link_prices",
+                        lambda self, k, graph, i, targets, clear=None:
+                        original(self, k, graph, i, targets))
+    scratch = WalkaroundRouter(board).route_layers(req, prices)
+    assert (reused.legs, reused.vias, reused.stats) == (scratch.legs, scratch.vias,
+                                                        scratch.stats)
+    assert_legal(board, reused.legs, reused.vias, req)
