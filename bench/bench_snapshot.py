@@ -1,6 +1,6 @@
 """The environment's copper-changing step without its DRC: a routed board's tracks and vias laid
 again on its unrouted instance, a few edits a step, in a KiCad worker
-(`pcbdata.kicad.routing_session.apply`: KiCad adds the items, rebuilds its connectivity and
+(`pcbdata.kicad.routing_session.apply`: KiCad adds the items, brings its connectivity up to date and
 answers with the snapshot the environment reads). Prints milliseconds per step per board.
 
     python bench/bench_snapshot.py SET --config d3-c [--boards NAME ...] [--batch 2]

@@ -275,7 +275,10 @@ def apply(edits: list[dict], drc: bool = False) -> dict:
         else:
             ids = list(layers.values())
             _add_via(board, net, edit["at"], edit["diameter"], edit["drill"], ids[0], ids[-1])
-    board.BuildConnectivity()
+    # The board keeps its connectivity's items as they are added and deleted; the ratsnest's
+    # recalculation searches the new links (and propagates nets), the same answers as
+    # rebuilding it all (tests/env/test_clusters.py) at a fraction of the time on a large board.
+    board.GetConnectivity().RecalculateRatsnest()
     return snapshot(drc)
 
 

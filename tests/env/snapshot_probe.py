@@ -1,7 +1,8 @@
 """Run inside a KiCad worker by `test_clusters.py`: a routed real board's tracks and vias laid
 again on its unrouted instance in batches, some taken up, the rest pruned; after every edit the
 environment's snapshot (which remembers links and records between steps) next to the same
-measurements worked out afresh."""
+measurements worked out afresh, and before the pruning the snapshot of the connectivity kept
+up step by step next to one of a connectivity rebuilt from scratch."""
 from __future__ import annotations
 
 import tempfile
@@ -48,6 +49,13 @@ def snapshots_agree(board: str, project: str, rules: str | None, reference: str)
             compared += 1
             if {k: snap[k] for k in keys} != _fresh():
                 differ.append(f"remove {k}")
+        # the connectivity kept up step by step (`apply`) against one rebuilt from scratch
+        kept = routing_session.snapshot(False)
+        routing_session._board().BuildConnectivity()
+        rebuilt = routing_session.snapshot(False)
+        compared += 1
+        if any(kept[k] != rebuilt[k] for k in (*keys, "clusters", "unconnected")):
+            differ.append("kept connectivity")
         pruned = routing_session.prune(sorted({e["net"] for e in edits}))
         if pruned["snapshot"] is not None:
             compared += 1

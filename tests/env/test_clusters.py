@@ -34,7 +34,8 @@ def test_snapshots_that_remember_links_and_records_are_the_fresh_ones(d3_set):
     """The environment's snapshot asks KiCad only about new items (`copper_labels` memory,
     remembered track records): laying a routed real board's copper again in batches, taking
     up every third track and pruning the rest, each snapshot's copper, clusters and totals
-    are those worked out afresh."""
+    are those worked out afresh; and the connectivity `apply` keeps up step by step gives the
+    snapshot of one rebuilt from scratch."""
     folders = [f for f in _references(Path(d3_set)) if "/d3-b/" in f.as_posix()][:2]
     if not folders:
         skip_without_snapshot(f"{d3_set}: no D3-B reference boards")
