@@ -55,6 +55,8 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--json", help="write the rows and the machine here")
     args = parser.parse_args(argv)
     folder = Path(args.set) / args.config / args.split
+    if not folder.is_dir():
+        raise SystemExit(f"{folder}: no such split folder (SET, --config and --split name it)")
     names = sorted(p.name for p in folder.iterdir() if (p / REFERENCE_FILE).is_file())
     boards = [folder / name for name in chosen_boards(names, args.boards)]
     if not boards:

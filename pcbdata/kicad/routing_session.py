@@ -27,7 +27,7 @@ from pcbdata.kicad.board_reading import (
     track_record,
     zone_records,
 )
-from pcbdata.kicad.scoring import clusters_per_net, copper_labels, totals_of
+from pcbdata.kicad.scoring import clusters_per_net, copper_labels, item_keys, totals_of
 from pcbdata.kicad.step_drc import is_uncounted_warning, static_violations, step_project_text
 
 #: The one board of this worker: {"board", "layers": {name: id}, "pads": [PAD], "path"}.
@@ -152,9 +152,12 @@ def snapshot(drc: bool = False) -> dict:
     tracks, pads = list(board.GetTracks()), _STATE["pads"]
     # One clustering gives the env's labels and the evaluator's per-net counts (`pad_clusters`
     # is the same function over the same items), so finish targets and U agree with `eval`.
-    labels = copper_labels(board, pads + tracks + list(board.Zones()), _STATE["links"])
+    items = pads + tracks + list(board.Zones())
+    ids, nets = item_keys(items)
+    labels = copper_labels(board, items, _STATE["links"], (ids, nets))
     npads = len(pads)
-    copper = _records(tracks)
+    span = slice(npads, npads + len(tracks))
+    copper = _records(tracks, ids[span], nets[span])
     for i, record in enumerate(copper):
         record["cluster"] = labels[npads + i]
     wl_mm, vias = totals_of((r["kind"], r.get("start"), r.get("end"), r.get("mid"))
@@ -167,16 +170,14 @@ def snapshot(drc: bool = False) -> dict:
             "violations": _violations(board) if drc else None}
 
 
-def _records(tracks: list) -> list[dict]:
+def _records(tracks: list, ids: list[str], nets: list[int]) -> list[dict]:
     """`track_record` of each track (cluster 0: the caller sets it), new dicts every call;
-    a track's record is remembered by its KiCad id and net, since the worker never moves an
-    item (edits add and delete), unless the ids are not distinct."""
+    a track's record is remembered by its KiCad id and net (`ids`, `nets`), since the worker
+    never moves an item (edits add and delete), unless the ids are not distinct."""
     names = {lid: name for name, lid in _STATE["layers"].items()}
-    ids = [t.m_Uuid.AsString() for t in tracks]
     memory: dict = _STATE["records"] if len(set(ids)) == len(ids) else {}
     out = []
-    for uid, track in zip(ids, tracks):
-        net = track.GetNetCode()
+    for uid, net, track in zip(ids, nets, tracks):
         known = memory.get(uid)
         if known is None or known[0] != net:
             known = memory[uid] = (net, track_record(track, names, 0))

@@ -346,7 +346,13 @@ def fingerprint(board, folder: str) -> dict[str, list[str]]:
 
 # ---- measurements on the transplanted board ---------------------------------------------------
 
-def copper_labels(board, items: list, memory: dict | None = None) -> list[int]:
+def item_keys(items: list) -> tuple[list[str], list[int]]:
+    """Each item's KiCad id and net code."""
+    return [item.m_Uuid.AsString() for item in items], [item.GetNetCode() for item in items]
+
+
+def copper_labels(board, items: list, memory: dict | None = None,
+                  keys: tuple[list[str], list[int]] | None = None) -> list[int]:
     """A cluster label per item of `items` (pads, tracks, vias, zones): items with one label
     are joined by copper of their net, as KiCad's connectivity links them. Labels count up in
     `items` order; an item without a net gets a label of its own.
@@ -360,11 +366,11 @@ def copper_labels(board, items: list, memory: dict | None = None) -> list[int]:
     one to a newer item is found when the newer item asks, so only new items, items whose net
     changed (KiCad gives net-less copper the net of a pad it touches) and zones (whose links
     reach new tracks from their side only) ask KiCad again; the labels are the same. A board
-    whose items do not have distinct ids asks for everything."""
+    whose items do not have distinct ids asks for everything. `keys`: the items' `item_keys`,
+    where the caller has them already."""
     pcbnew = _pcbnew()
     conn = board.GetConnectivity()
-    ids = [item.m_Uuid.AsString() for item in items]
-    nets = [item.GetNetCode() for item in items]
+    ids, nets = keys if keys is not None else item_keys(items)
     index = {uid: i for i, uid in enumerate(ids)}
     if len(index) != len(items):
         memory = None

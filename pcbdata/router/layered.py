@@ -304,7 +304,7 @@ class _Layered:
             return
         before = graph.checks
         priced = bool(self.soft) and not self.soft[k].empty
-        variants = graph._links_clear(i, targets, variants=True)
+        variants = graph._links_clear(i, targets)
         clear = variants.any(axis=0)
         reached = targets[clear]
         self.checks += graph.checks - before

@@ -145,17 +145,16 @@ class _Search:
                 return self._finish(parent)
             targets, cost = _targets(nodes, v, g, closed, self.compiled)
             if len(targets):
-                clear = self._links_clear(v, targets)
+                clear = self._links_clear(v, targets).any(axis=0)
                 reached = targets[clear]
                 g[reached] = cost[clear]
                 parent[reached] = v
 
-    def _links_clear(self, v: int, targets: np.ndarray, variants: bool = False
-                     ) -> np.ndarray:
-        """Whether a clear straight or one-bend link joins node v to each target node (both
-        one-bend variants are checked in one batch: fewer, larger geometry calls are faster);
-        with `variants`, (2, n): whether variant 0 / 1 of each link is clear (an octilinear
-        link is the same segment in both).
+    def _links_clear(self, v: int, targets: np.ndarray) -> np.ndarray:
+        """(2, n): whether variant 0 / 1 of the one-bend link from node v to each target node
+        is clear (an octilinear link is the same segment in both; both variants are checked in
+        one batch: fewer, larger geometry calls are faster); a target is reached where either
+        is.
 
         Variants the ray screen proves blocked skip the exact test; the answer is the same."""
         a, ends = self.nodes[v], self.nodes[targets]
@@ -170,7 +169,7 @@ class _Search:
         links = _LinkBatch(a, ends, maybe, self.compiled)
         if len(links.segments):
             links.judge(self.rules.failing(links.segments))
-        return links.variants if variants else links.clear
+        return links.variants
 
     def _screen_pays(self) -> bool:
         """Whether the screen still rules out enough to be worth its rays (on open boards
@@ -334,7 +333,6 @@ class _LinkBatch:
 
     def __init__(self, a: np.ndarray, ends: np.ndarray, maybe: np.ndarray,
                  compiled: bool = False):
-        self.clear = np.zeros(len(ends), dtype=bool)
         self.variants = np.zeros((2, len(ends)), dtype=bool)
         if compiled:  # the same segments, in one compiled pass (`search_kernel`)
             self.segments, self.direct, *self.bent = search_kernel._batch_segments(a, ends,
@@ -355,14 +353,16 @@ class _LinkBatch:
                                 knees[1], ends[self.bent[1]]])
         self.segments = np.stack([starts, stops], axis=1).astype(float)
 
+    @property
+    def clear(self) -> np.ndarray:
+        return np.asarray(self.variants.any(axis=0))
+
     def judge(self, failing: np.ndarray) -> None:
         at = len(self.direct)
-        self.clear[self.direct] = ~failing[:at]
         self.variants[:, self.direct] = ~failing[:at]
         for k in (0, 1):
             count = len(self.bent[k])
             ok = ~(failing[at : at + count] | failing[at + count : at + 2 * count])
-            self.clear[self.bent[k]] |= ok
             self.variants[k, self.bent[k]] = ok
             at += 2 * count
 
