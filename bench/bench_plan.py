@@ -13,7 +13,9 @@ with the repair after the rounds (`Negotiator._repair`, the default) and without
 (`repair_work=0`): the same plans where the rounds complete them, and what the repair adds
 elsewhere. `--budget-work` and `--repair-work` give every plan smaller budgets: level c boards
 spend the whole default budget, minutes a board, and a smaller one compares two versions of
-the code on the same counted work (run this file from each version's checkout).
+the code on the same counted work (run this file from each version's checkout). Each row and
+the record's `work_by_search` split the plans' link checks by the kind of search that made
+them (a walkaround leg, a layered search, a rip-up search) and whether it found a way.
 """
 from __future__ import annotations
 
@@ -50,6 +52,7 @@ def plan_once(env, board_id: str, **options) -> dict:
     return {"open": len(plan.open), "route_calls": plan.stats.get("route_calls"),
             "work": plan.stats.get("work"),
             "rips": plan.stats.get("rips"), "repaired": plan.stats.get("repaired"),
+            "work_by_search": plan.stats.get("work_by_search"),
             "digest": digest(plan),
             "cpu_s": round(seconds, 2)}
 
@@ -103,6 +106,8 @@ def main(argv: list[str] | None = None) -> None:
                   "machine": f"{os.cpu_count()} cores, {platform.platform()}",
                   "load_after": " ".join(f"{x:.2f}" for x in os.getloadavg()),
                   "rows": rows}
+        record["work_by_search"] = {form: _work_shares(r[form]["work_by_search"] for r in rows)
+                                    for form in forms}
         if len(forms) == 2:
             record["summary"] = {"boards": len(rows),
                                  "same_plan": sum(r["same_plan"] for r in rows)}
@@ -110,6 +115,17 @@ def main(argv: list[str] | None = None) -> None:
                 record["summary"][f"{form}_cpu_s"] = round(sum(r[form]["cpu_s"] for r in rows), 1)
                 record["summary"][f"{form}_work"] = sum(r[form]["work"] for r in rows)
         Path(args.json).write_text(json.dumps(record, indent=1) + "\n")
+
+
+def _work_shares(tallies) -> dict:
+    """The boards' link checks by kind of search and outcome, summed, and each one's share."""
+    total: dict[str, int] = {}
+    for tally in tallies:
+        for key, checks in tally.items():
+            total[key] = total.get(key, 0) + checks
+    whole = sum(total.values()) or 1
+    return {key: {"checks": checks, "share": round(checks / whole, 3)}
+            for key, checks in total.items()}
 
 
 if __name__ == "__main__":

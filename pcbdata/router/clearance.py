@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import Any
 
 import numpy as np
 import shapely
@@ -176,7 +177,7 @@ class _Rules:
         edge_clearance: float,
     ):
         self.layer = layer
-        self.half_width = half_width
+        self.half_width, self.clearance = half_width, clearance
         obstacle = layer.is_edge | (layer.code <= 0) | (layer.code != net_code)
         gap = np.where(layer.is_edge, edge_clearance, np.maximum(clearance, layer.clearance))
         need = layer.radius + half_width + gap - TOLERANCE
@@ -196,6 +197,10 @@ class _Rules:
         self.rays: dict[tuple[int, int, int], float] = {}
         self.ray_reach = 0.0
         self.layer_name = ""  # the layer these rules are for (`WalkaroundRouter._seed_rays`)
+        # A router's rules (`WalkaroundRouter._rules`): the layer's state and the request's
+        # net, whose corner nodes may follow from an earlier state's (`pcbdata.router.corners`).
+        self.state: Any = None
+        self.net = ""
 
     def free(self, points: np.ndarray, headings: np.ndarray, length: float) -> np.ndarray:
         """How far a track may run from each point along its heading (index into `HEADINGS`)

@@ -78,12 +78,14 @@ class GridIndex:
         self.start = (self.end - counts).astype(np.int64)
         self.kinds = np.ascontiguousarray(kinds, dtype=np.int8)
         box = np.full((n, 4), np.nan)
-        if len(owner):
-            xs, ys = self.pieces[:, :, 0], self.pieces[:, :, 1]
-            box[:, 0] = _reduce(np.minimum, xs.min(axis=1), owner, n)
-            box[:, 1] = _reduce(np.minimum, ys.min(axis=1), owner, n)
-            box[:, 2] = _reduce(np.maximum, xs.max(axis=1), owner, n)
-            box[:, 3] = _reduce(np.maximum, ys.max(axis=1), owner, n)
+        has = counts > 0
+        if has.any():  # an item's pieces are rows start..end: one reduction per run of rows
+            (ax, ay), (bx, by) = self.pieces[:, 0].T, self.pieces[:, 1].T
+            first = self.start[has]
+            box[has, 0] = np.minimum.reduceat(np.minimum(ax, bx), first)
+            box[has, 1] = np.minimum.reduceat(np.minimum(ay, by), first)
+            box[has, 2] = np.maximum.reduceat(np.maximum(ax, bx), first)
+            box[has, 3] = np.maximum.reduceat(np.maximum(ay, by), first)
         self.box = box
         has = ~np.isnan(box[:, 0])
         if has.any():
@@ -101,30 +103,41 @@ class GridIndex:
         self.shape = (int(span[0] // cell) + 1, int(span[1] // cell) + 1)
         self.first, self.items = _grid(self.box, self.origin, self.cell, self.shape[0],
                                        self.shape[1])
+        # Per entry of the cells (one item of one cell), the item's box and, per `need`
+        # (`_entries`), its reach: the boxes' test reads them in the cells' order.
+        self.entry_box = np.ascontiguousarray(self.box[self.items])
+        self._reach: dict[int, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     def judge(self, segments: np.ndarray, need: np.ndarray, max_need: float) -> np.ndarray:
         """Per segment (k, 2, 2): 0 clear, 1 violating, 2 unsure (see the module doc);
         `need` per item, -inf for items that are no obstacle."""
         segs = np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 2, 2)
-        return _judge(segs, self.pieces, self.start, self.end, self.kinds, self.box,
-                      np.ascontiguousarray(need, dtype=np.float64), float(max_need),
-                      self.origin, self.cell, self.shape[0], self.shape[1], self.first,
-                      self.items, MARGIN)
+        need, reach = self._entries(need)
+        return _judge(segs, self.pieces, self.start, self.end, self.kinds, self.box, need,
+                      float(max_need), self.origin, self.cell, self.shape[0], self.shape[1],
+                      self.first, self.items, MARGIN, self.entry_box, reach)
 
     def pairs(self, segments: np.ndarray, need: np.ndarray, max_need: float
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(segment, item, status) for every pair that is violating (1) or unsure (2)."""
         segs = np.ascontiguousarray(segments, dtype=np.float64).reshape(-1, 2, 2)
-        return _pairs(segs, self.pieces, self.start, self.end, self.kinds, self.box,
-                      np.ascontiguousarray(need, dtype=np.float64), float(max_need),
-                      self.origin, self.cell, self.shape[0], self.shape[1], self.first,
-                      self.items, MARGIN)
+        need, reach = self._entries(need)
+        return _pairs(segs, self.pieces, self.start, self.end, self.kinds, self.box, need,
+                      float(max_need), self.origin, self.cell, self.shape[0], self.shape[1],
+                      self.first, self.items, MARGIN, self.entry_box, reach)
 
-
-def _reduce(ufunc, values: np.ndarray, owner: np.ndarray, n: int) -> np.ndarray:
-    out = np.full(n, np.inf if ufunc is np.minimum else -np.inf)
-    ufunc.at(out, owner, values)
-    return np.where(np.isinf(out), np.nan, out)
+    def _entries(self, need: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`need` as float64 and each cell entry's reach under it (`need + MARGIN`, as
+        `_pair_status` works it out), kept per `need` array (a set of rules asks many times;
+        the array is held, so its id is not reused)."""
+        kept = self._reach.get(id(need))
+        if kept is None or kept[0] is not need:
+            if len(self._reach) >= 16:
+                self._reach.clear()
+            values = np.ascontiguousarray(need, dtype=np.float64)
+            kept = (need, values, np.ascontiguousarray(values[self.items] + MARGIN))
+            self._reach[id(need)] = kept
+        return kept[1], kept[2]
 
 
 @_jit
@@ -235,6 +248,14 @@ def _box_off_line(ax, ay, bx, by, x0, y0, x1, y1, reach):
 
 
 @_jit
+def _apart(boxes, reach, m, lox, loy, hix, hiy):
+    """Whether box m lies farther than `reach` from the segment's box on one axis (`reach`
+    -inf: an item that is no obstacle, always apart; a box of NaNs, never)."""
+    return (boxes[m, 0] - hix >= reach or lox - boxes[m, 2] >= reach or
+            boxes[m, 1] - hiy >= reach or loy - boxes[m, 3] >= reach)
+
+
+@_jit
 def _pair_status(i, ax, ay, bx, by, lox, loy, hix, hiy, pieces, start, end, kinds, box, need,
                  margin):
     """0 clear, 1 violating, 2 unsure for the segment a-b and item i."""
@@ -291,9 +312,11 @@ def _band(a_major, a_minor, b_major, b_minor, c0, c1, grow):
 
 @_jit
 def _judge(segs, pieces, start, end, kinds, box, need, max_need, origin, cell, nx, ny, first,
-           items, margin):
+           items, margin, entry_box, entry_reach):
     """Per segment: the items of the cells its box (widened by the largest allowed distance)
-    covers, until a violating one (see the module doc)."""
+    covers, until a violating one (see the module doc). Each cell entry's box is tested
+    first, from the entries' own arrays (`_apart`: `_pair_status`'s first test, so the same
+    statuses); only an item it keeps is looked up."""
     k = segs.shape[0]
     out = np.zeros(k, np.int8)
     stamp = np.full(box.shape[0], -1, np.int64)
@@ -314,6 +337,8 @@ def _judge(segs, pieces, start, end, kinds, box, need, max_need, origin, cell, n
             for gy in range(y0, y1 + 1):
                 c = gx * ny + gy
                 for m in range(first[c], first[c + 1]):
+                    if _apart(entry_box, entry_reach[m], m, lox, loy, hix, hiy):
+                        continue
                     i = items[m]
                     if stamp[i] == s:
                         continue
@@ -335,8 +360,9 @@ def _judge(segs, pieces, start, end, kinds, box, need, max_need, origin, cell, n
 
 @_jit
 def _pairs(segs, pieces, start, end, kinds, box, need, max_need, origin, cell, nx, ny, first,
-           items, margin):
-    """Every (segment, item) pair that is violating (1) or unsure (2), in segment order."""
+           items, margin, entry_box, entry_reach):
+    """Every (segment, item) pair that is violating (1) or unsure (2), in segment order (the
+    entries' boxes tested first, as in `_judge`)."""
     k = segs.shape[0]
     size = 16
     seg_out = np.empty(size, np.int64)
@@ -360,6 +386,8 @@ def _pairs(segs, pieces, start, end, kinds, box, need, max_need, origin, cell, n
             for gy in range(y0, y1 + 1):
                 c = gx * ny + gy
                 for m in range(first[c], first[c + 1]):
+                    if _apart(entry_box, entry_reach[m], m, lox, loy, hix, hiy):
+                        continue
                     i = items[m]
                     if stamp[i] == s:
                         continue

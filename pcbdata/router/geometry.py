@@ -45,6 +45,21 @@ class CopperItem:
     width: int = 0  # tracks/arcs: width; vias: diameter
     clearance: int = 0  # this item's net clearance (nm), from the rules
 
+    def __hash__(self) -> int:
+        """The hash a frozen dataclass gives (of its fields' tuple), worked out once per item:
+        the planners look the same items up many times. Kept out of pickles (`__getstate__`):
+        a string's hash differs from one process to the next."""
+        try:
+            return self.__dict__["_hash"]
+        except KeyError:
+            value = hash((self.kind, self.net, self.layers, self.polygon, self.start, self.end,
+                          self.mid, self.width, self.clearance))
+            object.__setattr__(self, "_hash", value)
+            return value
+
+    def __getstate__(self) -> dict:
+        return {k: v for k, v in self.__dict__.items() if k != "_hash"}
+
 
 @dataclass(frozen=True)
 class BoardGeometry:

@@ -25,6 +25,7 @@ import numpy as np
 
 from pcbdata.router import clearance_kernel
 from pcbdata.router.clearance import HEADINGS, parts_apart
+from pcbdata.router.corners import corner_nodes, unique_points
 from pcbdata.router.geometry import Point, simplify_path
 from pcbdata.router.search import (
     SEPARATION_AFTER,
@@ -111,7 +112,7 @@ def _fitting_spots(router, req: LayeredRequest) -> np.ndarray:
         unit = reach + req.via_diameter / 2 + req.clearance
         for step in RING_STEPS:
             parts.append(np.rint(np.array(end) + HEADINGS * unit * step))
-    points = np.unique(np.concatenate(parts).astype(np.int64), axis=0)
+    points = unique_points(np.concatenate(parts))
     points = points[~((points == req.start).all(axis=1) | (points == req.goal).all(axis=1))]
     if len(points):
         points = points[router.vias_fit(req.net, points, req.via_diameter, req.clearance,
@@ -131,19 +132,7 @@ def over_holes(points: np.ndarray, holes, diameter: int) -> np.ndarray:
 
 def _dot_corners(router, req: LayeredRequest, layer: str) -> np.ndarray:
     rules = router._rules(req.net, layer, req.via_diameter, req.clearance)
-    return _corners(router, rules).astype(float)
-
-
-def _corners(router, rules) -> np.ndarray:
-    """The rules' corner nodes (inside the board, clear), worked out once per rules."""
-    if rules.corners is None:
-        corners = router._corner_nodes(rules)
-        if len(corners):
-            corners = corners[router._inside(corners)]
-            corners = corners[~rules.failing(np.stack([corners, corners], axis=1))]
-        rules.corners = (np.unique(corners, axis=0).astype(np.int64) if len(corners)
-                         else np.empty((0, 2), np.int64))
-    return rules.corners
+    return corner_nodes(router, rules).astype(float)
 
 
 class _LayerGraph(_Search):
@@ -168,7 +157,7 @@ class _Layered:
         self.router, self.req = router, req
         self.rules = [router._rules(req.net, lay, req.width, req.clearance)
                       for lay in req.layers]
-        self.corners = [_corners(router, r) for r in self.rules]
+        self.corners = [corner_nodes(router, r) for r in self.rules]
         self.soft: list[SoftLayer] = []
         if soft is not None:
             self._take_soft(soft)
@@ -205,8 +194,8 @@ class _Layered:
             more = more[router._inside(more)] if len(more) else more
             if len(more):
                 more = more[~self.rules[k].failing(np.stack([more, more], axis=1))]
-                self.corners[k] = np.unique(np.concatenate(
-                    [self.corners[k], more.astype(np.int64)]), axis=0)
+                self.corners[k] = unique_points(np.concatenate(
+                    [self.corners[k], more.astype(np.int64)]))
 
     def run(self) -> LayeredResult:
         if not self.starts or not self.goals:

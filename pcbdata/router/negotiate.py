@@ -96,6 +96,10 @@ RESTARTS = 8
 OPEN_FIRST = 2
 OPEN_WEIGHT = 2
 CAUSES = ("boxed_in", "congestion", "budget")
+#: The plan's searches by kind, for its work tally (`Plan.stats["work_by_search"]`): a
+#: walkaround leg on one layer, a layered search (every layer, vias as moves) and a rip-up
+#: search (layered, crossing the soft copper at a price).
+SEARCH_KINDS = ("walkaround", "layered", "rip-up")
 #: Grid step (nm) of access points inside a pad whose centre a track cannot start at.
 ACCESS_STEP = 50_000
 #: The repair after the rounds (`Negotiator._repair`): the link checks and route calls it may
@@ -173,10 +177,15 @@ class Negotiator:
         # the board without planned copper; its searches stop where their ends are proven
         # apart (`WalkaroundRouter.prove_separation`: the same ways, less work)
         self.bare = WalkaroundRouter(board, prove_separation=prove_separation, **budgets)
-        self.connections = [_accessible(self.bare, rules[c.net], c) for c in connections]
+        open_ends: dict[tuple[str, End], tuple[str, ...]] = {}  # ends shared by connections
+        self.connections = [_accessible(self.bare, rules[c.net], c, open_ends)
+                            for c in connections]
         self.router = self.bare.with_board(board)  # with all of it
         self.fixed_router = self.bare.with_board(board)  # with what may not be ripped up
         self.calls = 0
+        # link checks by the kind of search and whether it found a way (`SEARCH_KINDS`)
+        self.work_by_search = {f"{kind} {end}": 0 for kind in SEARCH_KINDS
+                               for end in ("found", "none")}
         self._boxed_in: dict[int, bool] = {}
         self._reset()
 
@@ -223,7 +232,8 @@ class Negotiator:
         best.open = {i: self._cause(i, c) for i, c in sorted(best.open.items())}
         best.stats = {**best.stats, "route_calls": self.calls, "work": self.work,
                       "rounds": rounds, "repaired": before - len(best.open),
-                      "connections": len(self.connections)}
+                      "connections": len(self.connections),
+                      "work_by_search": dict(self.work_by_search)}
         return best
 
     def _shortest_first(self, indices) -> list[int]:
@@ -500,12 +510,14 @@ class Negotiator:
             return None
         self.calls += 1
         holes = self._own_holes(index) if router is self.fixed_router else ()
+        before = self.work
         result = router.route_layers(LayeredRequest(
             net=c.net, start=c.a.at, start_layers=c.a.layers, goal=c.b.at,
             goal_layers=c.b.layers, width=rule.width, clearance=rule.clearance,
             via_diameter=rule.via_diameter, layers=self.layers, reach=(c.a.reach, c.b.reach),
             via_cost=self.via_cost, holes=holes,
             heuristic_weight=self._weight if weight is None else weight), soft)
+        self._tally("rip-up" if soft is not None else "layered", before, result.legs)
         if result.legs is None:
             return None
         return Wire(c.net, result.legs, result.vias)
@@ -524,17 +536,30 @@ class Negotiator:
         if self._spent():
             return None
         self.calls += 1
+        before = self.work
         result = router.route(RouteRequest(net=net, layer=layer, start=a, goal=b,
                                            width=rule.width, clearance=rule.clearance))
+        self._tally("walkaround", before, result.path)
         return None if result.path is None else tuple((int(x), int(y)) for x, y in result.path)
 
+    def _tally(self, kind: str, before: int, way) -> None:
+        """Adds the link checks made since `before` to `work_by_search`."""
+        self.work_by_search[f"{kind} {'none' if way is None else 'found'}"] += (
+            self.work - before)
 
-def _accessible(router: WalkaroundRouter, rule: NetRule, c: Connection) -> Connection:
+
+def _accessible(router: WalkaroundRouter, rule: NetRule, c: Connection,
+                open_ends: dict[tuple[str, End], tuple[str, ...]] | None = None) -> Connection:
     """`c`, or where a track cannot start at an end's pad centre on any of its layers (a pad
     whose centre lies off the board or too near other copper) and can at the other end, `c`
     from the other end to an access point: the point of that pad's copper nearest its centre
-    where a track can end (the agent starts a wire at a pad centre, and may end it anywhere)."""
-    a_ok, b_ok = (_open_layers(router, rule, c.net, end) for end in (c.a, c.b))
+    where a track can end (the agent starts a wire at a pad centre, and may end it anywhere).
+    `open_ends` remembers each end's open layers (one net, one rule), across connections."""
+    open_ends = {} if open_ends is None else open_ends
+    for end in (c.a, c.b):
+        if (c.net, end) not in open_ends:
+            open_ends[c.net, end] = _open_layers(router, rule, c.net, end)
+    a_ok, b_ok = open_ends[c.net, c.a], open_ends[c.net, c.b]
     if a_ok and b_ok or not (a_ok or b_ok):
         return c
     good, bad = (c.a, c.b) if a_ok else (c.b, c.a)

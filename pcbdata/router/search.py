@@ -9,6 +9,7 @@ import numpy as np
 
 from pcbdata.router import clearance_kernel, search_kernel
 from pcbdata.router.clearance import _HEADING_INDEX, _ROOT2, _Rules, _segments
+from pcbdata.router.corners import corner_nodes
 from pcbdata.router.geometry import (
     Point,
     bends,
@@ -59,19 +60,9 @@ class _Search:
         self.checks = self.expanded = 0
         self.screened = self.ruled_out = 0  # link variants put to the ray screen; ruled out
         self.asked = False  # whether the search asked `_Rules.separated` yet
-        if rules.corners is None:  # the same for every search under these rules
-            corners = router._corner_nodes(rules)
-            if len(corners):
-                corners = corners[router._inside(corners)]
-                corners = corners[~rules.failing(np.stack([corners, corners], axis=1))]
-            rules.corners = (
-                np.unique(corners, axis=0).astype(np.int64)
-                if len(corners)
-                else np.empty((0, 2), np.int64)
-            )
-        corners = rules.corners
+        nodes = corner_nodes(router, rules)
         ends = np.array([start, goal], dtype=np.int64)
-        self.corners = corners[~(corners[:, None, :] == ends[None]).all(axis=2).any(axis=1)]
+        self.corners = nodes[~(nodes[:, None, :] == ends[None]).all(axis=2).any(axis=1)]
         self.ends = ends
         # Ray bounds (`_Rules.free`) per node (row 0 start, 1 goal, 2 + i corner i) and
         # heading, found when first needed and kept while the window grows.

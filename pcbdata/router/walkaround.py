@@ -37,7 +37,8 @@ and answer types are in `pcbdata.router.requests`, the clearance rules and a lay
 from __future__ import annotations
 
 import time
-from collections import OrderedDict
+from bisect import bisect_left
+from collections import Counter, OrderedDict
 from dataclasses import replace
 
 import numpy as np
@@ -99,6 +100,8 @@ class WalkaroundRouter:
         self.prove_separation = prove_separation
         self._cache: dict[CopperItem, _Prepared] = {}
         self._shared = _Memory()
+        # the last board's items, sorted, and as a set (`_sorted_copper`)
+        self._sorted: tuple[list[CopperItem], Counter[CopperItem]] | None = None
         self.update(board)
 
     def with_board(self, board: BoardGeometry) -> WalkaroundRouter:
@@ -110,6 +113,7 @@ class WalkaroundRouter:
         other.prove_separation = self.prove_separation
         other._cache = dict(self._cache)
         other._shared = self._shared
+        other._sorted = self._sorted
         other.update(board)
         return other
 
@@ -118,10 +122,17 @@ class WalkaroundRouter:
         outline's region and edges are kept while the outline and edge clearance stay."""
         old = getattr(self, "board", None)
         self.board = board
-        items = sorted(board.copper, key=item_sort_key)
-        self._cache = {
-            item: self._cache.get(item) or _prepare(*copper_core(item)) for item in items
-        }
+        items, came, went = self._sorted_copper(board.copper)
+        if came is None:  # a board of its own: prepared shapes of its items only
+            self._cache = {
+                item: self._cache.get(item) or _prepare(*copper_core(item)) for item in items
+            }
+        else:  # the last board's, less the items gone, with those come
+            for item in went:
+                self._cache.pop(item, None)
+            for item in came:
+                if item not in self._cache:
+                    self._cache[item] = _prepare(*copper_core(item))
         same_edges = old is not None and old.edge_clearance == board.edge_clearance and (
             old.outline is board.outline or old.outline == board.outline)
         if not same_edges:
@@ -134,6 +145,40 @@ class WalkaroundRouter:
             for layer in item.layers:
                 self._layer_items.setdefault(layer, []).append(item)
         self._keys: dict[str, _StateKey] = {}
+
+    def _sorted_copper(self, copper: tuple[CopperItem, ...]):
+        """`sorted(copper, key=item_sort_key)`, from the last board's sorted items where the
+        two share most of them (a planner adds and takes up a few at a time): the last list
+        less the items gone, the new ones put in their places. The key is every field, so
+        items with one key are equal and the list is the same (repeated items, e.g. one via
+        of two wires, side by side). Also the items come and gone since the last board (None,
+        None: sorted afresh)."""
+        counts = Counter(copper)
+        last, self._sorted = self._sorted, None
+        if last is not None:
+            old_list, old_counts = last
+            if len(counts) == len(copper) and len(old_counts) == len(old_list):
+                added = dict.fromkeys(counts.keys() - old_counts.keys(), 1)  # each once
+            else:
+                added = counts - old_counts
+            if sum(added.values()) <= len(copper) // 4 + 16:
+                went = old_counts.keys() - counts.keys()
+                if went or len(old_list) + sum(added.values()) != len(copper):
+                    out, left = [], dict(counts)
+                    for item in old_list:
+                        if left.get(item, 0) > 0:
+                            left[item] -= 1
+                            out.append(item)
+                else:
+                    out = list(old_list)
+                for item in sorted(added, key=item_sort_key):
+                    at = bisect_left(out, item_sort_key(item), key=item_sort_key)
+                    out[at:at] = [item] * added[item]
+                self._sorted = (out, counts)
+                return out, added.keys(), went
+        out = sorted(copper, key=item_sort_key)
+        self._sorted = (out, counts)
+        return out, None, None
 
     def _layer_key(self, layer: str) -> _StateKey:
         """What a layer's answers depend on: the board outline, the edge clearance and the
@@ -174,17 +219,24 @@ class WalkaroundRouter:
             if fits.any():
                 fits &= ~self._rules(net, layer, diameter, clearance).failing(dots)
         if fits.any():
-            fits &= ~self._on_own_holes(net, at, diameter)
+            fits[fits] = ~self._on_own_holes(net, at[fits], diameter)
         return fits
 
     def _on_own_holes(self, net: str, at: np.ndarray, diameter: int) -> np.ndarray:
+        """Per point, whether a via of `diameter` there overlaps the net's own drilled copper.
+        Each item is measured only against the points inside its box widened by that reach
+        (a point outside is farther than the reach): the same answers."""
         drilled = [item for item in self.board.copper if item.net == net and (
             item.kind == "via" or (item.kind == "pad" and len(item.layers) > 1))]
         over = np.zeros(len(at), dtype=bool)
-        dots = shapely.points(at)
         for item in drilled:
             shape = self._cache[item]
-            over |= shapely.distance(shape.core, dots) < shape.radius + diameter / 2
+            reach = shape.radius + diameter / 2
+            x0, y0, x1, y1 = shapely.bounds(shape.core)
+            near = np.flatnonzero((at[:, 0] >= x0 - reach) & (at[:, 0] <= x1 + reach)
+                                  & (at[:, 1] >= y0 - reach) & (at[:, 1] <= y1 + reach))
+            if len(near):
+                over[near] |= shapely.distance(shape.core, shapely.points(at[near])) < reach
         return over
 
     # --- routing ---
@@ -274,7 +326,7 @@ class WalkaroundRouter:
         memory.layers.move_to_end(key)
         code = shape.net_codes.get(net, -2)  # a net with no copper here owns nothing
         rules = _Rules(shape, code, width / 2, clearance, self.board.edge_clearance)
-        rules.layer_name = layer
+        rules.layer_name, rules.state, rules.net = layer, key, net
         self._seed_rays(rules, key, net, width, clearance)
         memory.remember(memory.rules, rules_key, rules)
         return rules
@@ -302,7 +354,10 @@ class WalkaroundRouter:
     def _point_problem(self, rules: _Rules, point: Point) -> str:
         if not self._inside(np.array([point], dtype=float))[0]:
             return "is outside the board"
-        _, items = rules.violations(_segments([point]))
+        dot = _segments([point])
+        if not rules.failing(dot)[0]:  # the compiled test where it is sure: most points
+            return ""
+        _, items = rules.violations(dot)
         if len(items):
             return f"is within clearance of {rules.layer.describe(int(items.min()))}"
         return ""
@@ -315,18 +370,31 @@ class WalkaroundRouter:
         coordinate away from the obstacle, in the quadrant between the corner's two normals),
         which keeps it outside both of its sides, hence at least `need` from the core.
         """
+        return self._corner_candidates(rules, None)[0]
+
+    def _corner_candidates(self, rules: _Rules, items: np.ndarray | None
+                           ) -> tuple[np.ndarray, np.ndarray]:
+        """`_corner_nodes` and the layer record each came from (-1: a board corner); with
+        `items` (record indices of obstacles), those items' corners only."""
         layer = rules.layer
-        items = np.flatnonzero(rules.obstacle & ~layer.is_edge)
+        board = items is None
+        if items is None:
+            items = np.flatnonzero(rules.obstacle & ~layer.is_edge)
         reach = rules.reach[items]
         pairs = np.stack([reach, np.roll(reach, -1, axis=1)], axis=2)  # (m, 8, 2)
         corners = np.einsum("kij,mkj->mki", _CORNER_SOLVERS, pairs)  # (m, 8, 2)
         parts = [_round_outwards(corners, _CORNER_SIGNS[None]).reshape(-1, 2)]
+        owners = [np.repeat(items, 8)]
         for i in items[~layer.convex[items]]:  # octagons lose a zone's bays: add its own corners
             grown = shapely.buffer(layer.cores[i], rules.need[i], join_style="mitre")
             points = shapely.get_coordinates(shapely.boundary(grown))
             parts.append(_round_outwards(points, np.sign(points - layer.inner[i])))
-        parts.append(self._board_corners(rules.half_width))
-        return np.concatenate(parts)
+            owners.append(np.full(len(points), i))
+        if board:
+            parts.append(self._board_corners(rules.half_width))
+            owners.append(np.full(len(parts[-1]), -1))
+        return (np.concatenate(parts).reshape(-1, 2),
+                np.concatenate(owners).astype(np.int64))
 
     def _board_corners(self, half_width: float) -> np.ndarray:
         """Corners of the board inset by the edge clearance, rounded towards the board's
@@ -383,9 +451,19 @@ class _Memory:
         self.rules: OrderedDict = OrderedDict()
         self.routes: OrderedDict = OrderedDict()
         self.vias: OrderedDict = OrderedDict()  # via candidates (`layered.via_candidates`)
+        #: Recent states' corner nodes by layer, outline, width and clearance
+        #: (`pcbdata.router.corners`), most recent first.
+        self.corner_sets: OrderedDict = OrderedDict()
         #: Link checks made by searches worked out (not remembered) so far: the routers'
         #: counted work, which a caller may budget (`pcbdata.router.negotiate`).
         self.work = 0
+
+    def remember_corners(self, group: tuple, corner_set, kept: int) -> None:
+        """Keeps `corner_set` first in its group, at most `kept` a group and `RULES` groups."""
+        sets = [corner_set] + [c for c in self.corner_sets.pop(group, []) if c is not corner_set]
+        self.corner_sets[group] = sets[:kept]
+        while len(self.corner_sets) > self.RULES:
+            self.corner_sets.popitem(last=False)
 
     def remember(self, table: OrderedDict, key, value) -> None:
         table[key] = value

@@ -8,7 +8,7 @@ import shapely
 
 from pcbdata.router.connections import Connection, End, spanning_connections
 from pcbdata.router.geometry import BoardGeometry, CopperItem, copper_core
-from pcbdata.router.negotiate import Negotiator, NetRule, Plan, Wire
+from pcbdata.router.negotiate import SEARCH_KINDS, Negotiator, NetRule, Plan, Wire
 
 MM = 1_000_000
 LAYERS = ("F.Cu",)
@@ -105,6 +105,19 @@ def test_plans_are_deterministic_and_the_budget_counts_route_calls():
                        repair_work=0).run()
     assert short.stats["route_calls"] == 1
     assert set(short.open.values()) <= {"budget"} and len(short.wires) == 1
+
+
+def test_the_plans_work_is_split_by_the_kind_of_search_that_made_it():
+    board, connections, rules = gates_board()
+    plan = Negotiator(board, LAYERS, rules, connections, restarts=0).run()
+    split = plan.stats["work_by_search"]
+    assert sorted(split) == sorted(f"{kind} {end}" for kind in SEARCH_KINDS
+                                   for end in ("found", "none"))
+    assert sum(split.values()) == plan.stats["work"] > 0
+    # B finds no walkaround past A's copper, then a rip-up search lays it through A's
+    assert plan.stats["rips"] == 1
+    assert split["walkaround none"] > 0 and split["rip-up found"] > 0
+    assert split["rip-up none"] == 0
 
 
 def test_the_work_budget_counts_link_checks_and_stops_the_plan():
