@@ -263,8 +263,7 @@ def _pair_status(i, ax, ay, bx, by, lox, loy, hix, hiy, pieces, start, end, kind
     if limit == -np.inf:
         return 0
     reach = limit + margin  # boxes apart by more than the allowed distance
-    if box[i, 0] - hix >= reach or lox - box[i, 2] >= reach or \
-            box[i, 1] - hiy >= reach or loy - box[i, 3] >= reach:
+    if _apart(box, reach, i, lox, loy, hix, hiy):
         return 0
     if end[i] - start[i] > 2 and _box_off_line(ax, ay, bx, by, box[i, 0], box[i, 1],
                                                box[i, 2], box[i, 3], reach):

@@ -39,6 +39,7 @@ from __future__ import annotations
 import time
 from bisect import bisect_left
 from collections import Counter, OrderedDict
+from collections.abc import Iterable
 from dataclasses import replace
 
 import numpy as np
@@ -100,7 +101,7 @@ class WalkaroundRouter:
         self.prove_separation = prove_separation
         self._cache: dict[CopperItem, _Prepared] = {}
         self._shared = _Memory()
-        # the last board's items, sorted, and as a set (`_sorted_copper`)
+        # the last board's items, sorted, and counted (`_sorted_copper`)
         self._sorted: tuple[list[CopperItem], Counter[CopperItem]] | None = None
         self.update(board)
 
@@ -123,7 +124,7 @@ class WalkaroundRouter:
         old = getattr(self, "board", None)
         self.board = board
         items, came, went = self._sorted_copper(board.copper)
-        if came is None:  # a board of its own: prepared shapes of its items only
+        if came is None or went is None:  # a board of its own: its items' shapes only
             self._cache = {
                 item: self._cache.get(item) or _prepare(*copper_core(item)) for item in items
             }
@@ -146,7 +147,9 @@ class WalkaroundRouter:
                 self._layer_items.setdefault(layer, []).append(item)
         self._keys: dict[str, _StateKey] = {}
 
-    def _sorted_copper(self, copper: tuple[CopperItem, ...]):
+    def _sorted_copper(self, copper: tuple[CopperItem, ...]
+                       ) -> tuple[list[CopperItem], Iterable[CopperItem] | None,
+                                  Iterable[CopperItem] | None]:
         """`sorted(copper, key=item_sort_key)`, from the last board's sorted items where the
         two share most of them (a planner adds and takes up a few at a time): the last list
         less the items gone, the new ones put in their places. The key is every field, so
