@@ -19,13 +19,20 @@ again ahead of the rest; a connection is ripped at most `max_rips`
 times (then it is hard copper, never crossed again), so the loop ends. A connection with no
 way even on the board without planned copper is *boxed in*; one that has a way there but only
 through copper that may not be ripped is *congested*; one that ran out of the budget is
-*budget*. Later rounds start again from a clean board: the next two put the connections the
-best round left open first; after those, while the plan has budget left and an open
-connection that is not boxed in, each round takes the connections hardest first, by their
-history (rip-ups and times left open, summed over every round so far), and the rounds stop
-when that order repeats one already tried. The best state seen (most connections routed, then
-least wire) is then repaired where it left connections open that are not boxed in
-(`Negotiator._repair`, with a budget of its own): each such connection is laid through the
+*budget*. Where the first round leaves connections open, the repair below is tried on its
+plan at once, with a smaller allowance taken from the rounds' budgets (`EARLY_REPAIR_WORK`,
+`EARLY_REPAIR_ROUTES`): a plan it completes is the plan, without later rounds (on congested
+boards they cost as much as the first, and seldom do better). Later rounds start again from a
+clean board: the next two put the connections the best round left open first; after those,
+while the plan has budget left and an open connection that is not boxed in, each round takes
+the connections hardest first, by their history (rip-ups and times left open, summed over
+every round so far), and the rounds stop when that order repeats one already tried. The best
+state seen (the best round, most connections routed, then least wire; or the first round's
+repaired plan where it leaves no more open: a repair never leaves more open than its plan)
+is then repaired where it leaves connections open that are not boxed in (`Negotiator._repair`,
+with a budget of its own; where that state is the first round's plan that the repair went
+through already within its allowance, the best later round is repaired instead and the better
+of the two kept): each such connection is laid through the
 other connections' copper, every connection it rips up is placed again (ripped at most once),
 an attempt that rips up more than `REPAIR_RIPS` is given up, each connection an attempt
 leaves open is settled the same way before the attempt is judged (`REPAIR_DEPTH` levels
@@ -113,6 +120,10 @@ REPAIR_WEIGHT = 2.0
 REPAIR_SEARCH = 4
 REPAIR_DEPTH = 1
 REPAIR_RIPS = 24
+#: The repair tried on the first round's plan where that leaves connections open (taken from
+#: the rounds' budgets): a plan it completes is the plan, without the later rounds.
+EARLY_REPAIR_WORK = 10_000_000
+EARLY_REPAIR_ROUTES = 1000
 
 
 @dataclass(frozen=True)
@@ -201,37 +212,49 @@ class Negotiator:
         """Rounds of the negotiation, each from a clean board: the first in the connections'
         order; the next `OPEN_FIRST` with the connections the best round left open first;
         then, while an open connection is not boxed in and the budget lasts, hardest first
-        by history (`_by_history`) until an order repeats. The best round is the plan."""
+        by history (`_by_history`) until an order repeats; the first round's plan repaired
+        at once where it leaves connections open (`_early_repair`). The best state, repaired
+        (see the module doc), is the plan."""
         order = list(range(len(self.connections)))
         history = [0] * len(self.connections)
         tried: set[tuple[int, ...]] = set()
-        best: Plan | None = None
-        rounds = 0
+        best_round: Plan | None = None
+        round_one: Plan | None = None
+        early: tuple[Plan, bool] | None = None  # the first round repaired; whether to the end
+        rounds, rounds_open = 0, len(self.connections)
         while True:
             tried.add(tuple(order))
             plan = self._round(order)
             rounds += 1
+            if rounds == 1:
+                round_one = plan
+            rounds_open = min(rounds_open, len(plan.open))
             for i in range(len(self.connections)):
                 history[i] += self.rips[i] + (OPEN_WEIGHT if i in plan.open else 0)
-            if best is None or _rank(plan) < _rank(best):
-                best = plan
+            if best_round is None or _rank(plan) < _rank(best_round):
+                best_round = plan
+            if rounds == 1 and plan.open and self.repair_work > 0 and not self._spent():
+                early = self._early_repair(plan)
+            best = _better(best_round, early)
             if not best.open or self._spent() or rounds > self.restarts:
                 break
             if rounds <= OPEN_FIRST:
-                first = self._shortest_first(best.open)
-                order = first + [i for i in order if i not in best.open]
+                first = self._shortest_first(best_round.open)
+                order = first + [i for i in order if i not in best_round.open]
                 continue
-            if all(self._boxed(i) for i in best.open) or self._spent():
+            if all(self._boxed(i) for i in best_round.open) or self._spent():
                 break
             order = _by_history(history)
             if tuple(order) in tried:
                 break
-        before = len(best.open)
         if best.open and self.repair_work > 0:
-            best = self._repair(best)
+            if early is None or best is not early[0] or not early[1]:
+                best = self._repair(best)
+            elif best_round is not round_one:  # the first round's repair is done: a later one's
+                best = _better(self._repair(best_round), early)
         best.open = {i: self._cause(i, c) for i, c in sorted(best.open.items())}
         best.stats = {**best.stats, "route_calls": self.calls, "work": self.work,
-                      "rounds": rounds, "repaired": before - len(best.open),
+                      "rounds": rounds, "repaired": max(0, rounds_open - len(best.open)),
                       "connections": len(self.connections),
                       "work_by_search": dict(self.work_by_search)}
         return best
@@ -242,7 +265,22 @@ class Negotiator:
 
     # --- the repair ---
 
-    def _repair(self, plan: Plan) -> Plan:
+    def _early_repair(self, plan: Plan) -> tuple[Plan, bool]:
+        """The first round's `plan` repaired (`_repair`) with at most `EARLY_REPAIR_WORK`
+        link checks and `EARLY_REPAIR_ROUTES` route calls, taken from the rounds' budgets;
+        and whether it finished within them (a plan repaired to the end: the last repair
+        would only repeat it)."""
+        budgets = self.budget, self.budget_work
+        try:
+            out = self._repair(plan, min(EARLY_REPAIR_WORK, self.repair_work,
+                                         self.budget_work - self.work),
+                               min(EARLY_REPAIR_ROUTES, self.budget - self.calls))
+            return out, not self._spent()
+        finally:
+            self.budget, self.budget_work = budgets
+
+    def _repair(self, plan: Plan, work: int | None = None,
+                routes: int = REPAIR_ROUTES) -> Plan:
         """The best round's plan repaired, one open connection at a time (shortest first,
         boxed-in ones left), with `repair_work` more link checks and `REPAIR_ROUTES` more
         route calls than the rounds made: an attempt (`_attempt`) lays the connection through
@@ -251,11 +289,11 @@ class Negotiator:
         way (`_settle`, `repair_depth` levels down). An attempt that then leaves none of them
         open is kept; one that leaves exactly one open is kept too (the open connection
         changes, their number does not), once per connection that moved so; any other is
-        undone. Passes repeat while one keeps an attempt. So the repair never
-        leaves more connections open than the rounds, and a plan the rounds complete has
-        none."""
-        self.budget_work = self.work + self.repair_work
-        self.budget = self.calls + REPAIR_ROUTES
+        undone. Passes repeat while one keeps an attempt. So the repair never leaves more
+        connections open than `plan`; `work` and `routes` are its allowance (default: the
+        plan's `repair_work` and `REPAIR_ROUTES`)."""
+        self.budget_work = self.work + (self.repair_work if work is None else work)
+        self.budget = self.calls + routes
         fixed, max_rips = self.fixed_router, self.max_rips
         searches = fixed.budget_nodes, fixed.budget_checks
         fixed.budget_nodes, fixed.budget_checks = (n * REPAIR_SEARCH for n in searches)
@@ -600,6 +638,13 @@ def _access_point(router, rule: NetRule, net: str, end: End):
 def _by_history(history: list[int]) -> list[int]:
     """The connections hardest first: most history first, ties in the connections' order."""
     return sorted(range(len(history)), key=lambda i: (-history[i], i))
+
+
+def _better(plan: Plan, repaired: tuple[Plan, bool] | None) -> Plan:
+    """`plan`, or the repaired plan (`_early_repair`'s) where that leaves no more open."""
+    if repaired is not None and len(repaired[0].open) <= len(plan.open):
+        return repaired[0]
+    return plan
 
 
 def _rank(plan: Plan) -> tuple:

@@ -244,6 +244,82 @@ def test_the_repair_lays_an_open_connection_through_planned_copper_and_places_it
     assert again.wires == plan.wires and again.stats == plan.stats
 
 
+def test_the_first_rounds_plan_is_repaired_before_any_later_round():
+    """Rounds that may not rip up leave B open after the first; a second round (B first)
+    would complete the plan, but the repair tried on the first round's plan completes it
+    already: no later round runs, and the repair is not run again at the end."""
+    board, connections, rules = gates_board()
+    plan = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=1).run()
+    assert plan.open == {} and plan.stats["rounds"] == 1 and plan.stats["repaired"] == 1
+    assert max(y for _, y in plan.wires[0].legs[0][1]) > mm(26)  # A through gate 2
+    once = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=0).run()
+    assert once.wires == plan.wires and once.stats["work"] == plan.stats["work"]
+    # without a repair, the second round completes it
+    rounds = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=1,
+                        repair_work=0).run()
+    assert rounds.open == {} and rounds.stats["rounds"] == 2
+
+
+def test_the_early_repair_is_taken_from_the_rounds_budget():
+    """The first round's repair may spend no more than what the rounds' work budget leaves:
+    with the rounds' budget spent by the first round it is not tried; with one link check
+    left it runs short, and the repair at the end (a budget of its own) places B."""
+    board, connections, rules = gates_board()
+    first = Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=0,
+                       repair_work=0).run()
+    spent = first.stats["work"]
+    early: list[int] = []
+
+    class _Watched(Negotiator):
+        def _early_repair(self, plan):
+            out = super()._early_repair(plan)
+            early.append(len(out[0].open))
+            return out
+
+    plan = _Watched(board, LAYERS, rules, connections, max_rips=0, restarts=1,
+                    budget_work=spent).run()
+    assert early == [] and plan.open == {} and plan.stats["rounds"] == 1
+    plan = _Watched(board, LAYERS, rules, connections, max_rips=0, restarts=1,
+                    budget_work=spent + 1).run()
+    assert early == [1] and plan.open == {} and plan.stats["rounds"] == 1
+    assert plan.stats["repaired"] == 1
+
+
+class _ScriptedRepair(_Scripted):
+    """`_Scripted` rounds and a repair whose outcome is given per call: the connections it
+    leaves open; the plans it was asked to repair are kept."""
+
+    def __init__(self, script, repairs, *args, **kwargs):
+        super().__init__(script, *args, **{"repair_work": 1000, **kwargs})
+        self.repairs, self.repaired_from = list(repairs), []
+
+    def _repair(self, plan, work=None, routes=0):
+        self.repaired_from.append(sorted(plan.open))
+        open_ = self.repairs.pop(0)
+        wires = {i: Wire("A", (("F.Cu", ((0, 0), (i + 1, 0))),)) for i in range(3)
+                 if i not in open_}
+        return Plan(wires, {i: "congestion" for i in open_}, plan.stats)
+
+
+def test_the_later_rounds_follow_the_rounds_and_the_last_repair_takes_the_best_later_round():
+    """The first round leaves 0, 1, 2 open and its repair (to the end) leaves 1: that is the
+    best state, but the later rounds still put the first round's open connections first, and
+    at the end, that repair being done, the best later round ({0, 2} open) is repaired
+    instead, which completes it."""
+    board, connections, rules = gates_board()
+    three = connections + [connections[0]]
+    script = [([0, 0, 0], {0, 1, 2}), ([0, 0, 0], {0, 2}), ([0, 0, 0], {0, 2}),
+              ([0, 0, 0], {0, 2})]
+    flow = _ScriptedRepair(script, [{1}, set()], board, LAYERS, rules, three, restarts=2)
+    plan = flow.run()
+    assert flow.orders[1:3] == [[0, 2, 1], [0, 2, 1]]  # not the repaired plan's {1} first
+    assert flow.repaired_from == [[0, 1, 2], [0, 2]] and plan.open == {}
+    # where the best later round's repair does worse, the first round's repaired plan stays
+    flow = _ScriptedRepair(script, [{1}, {0, 2}], board, LAYERS, rules, three, restarts=2)
+    plan = flow.run()
+    assert flow.repaired_from == [[0, 1, 2], [0, 2]] and sorted(plan.open) == [1]
+
+
 def test_a_repair_may_change_which_connection_is_open_once_never_their_number():
     """Gate 2 closed: one crossing for two nets. The rounds route A (the shorter) and leave B
     open; the repair lays B through A's copper and A finds no way back: one open either way,
