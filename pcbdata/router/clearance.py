@@ -36,6 +36,9 @@ _DENSE_PAIRS = 20_000
 # heading given as a pair of signs, at [sx + 1, sy + 1].
 HEADINGS = _NORMALS
 _HEADING_INDEX = np.array([[5, 4, 3], [6, -1, 2], [7, 0, 1]])
+# The window of the nearby proof that two points are apart (`_Rules._apart_nearby`), in
+# multiples of the largest distance an obstacle's core keeps from the track's centre.
+LOCAL_WINDOW = 10.0
 # Keep-outs for the ray screen (see `_Rules.free`): the allowed distance less this much (nm),
 # so whatever they touch violates the clearance beyond float doubt.
 _SCREEN_SHRINK = 1.0
@@ -97,6 +100,11 @@ class _Layer:
         self.inner = np.array([p.inner for p in prepared], dtype=float).reshape(-1, 2)
         self.convex = np.array([p.convex for p in prepared], dtype=bool)
         self._prepared = prepared
+
+    @cached_property
+    def bounds(self) -> np.ndarray:
+        """(n, 4): each core's box (xmin, ymin, xmax, ymax)."""
+        return np.asarray(shapely.bounds(self.cores), dtype=float).reshape(-1, 4)
 
     @cached_property
     def tree(self) -> shapely.STRtree:
@@ -290,8 +298,50 @@ class _Rules:
     def separated(self, region: shapely.Geometry | None, a: tuple[int, int],
                   b: tuple[int, int]) -> bool:
         """Whether no clear path of this request's track joins points a and b on this layer
-        (`parts_apart` over `free_parts`: True only where certain)."""
+        (`parts_apart` over `free_parts`: True only where certain). Asked first inside a
+        window round each point (`_apart_nearby`), which answers alike where it answers at
+        all, without the whole layer's free space."""
+        nearby = self._apart_nearby(region, a, b)
+        if nearby is not None:
+            return nearby
         return parts_apart([self.free_parts(region)], np.empty((0, 2)), a, [0], b, [0])
+
+    def _apart_nearby(self, region: shapely.Geometry | None, a: tuple[int, int],
+                      b: tuple[int, int]) -> bool | None:
+        """`separated` from the free space inside a window round one point, or None where
+        that does not settle it. The free space inside a window is the board there less the
+        keep-outs of the obstacles that reach into it; a part of it that holds the point and
+        does not reach the window's edge is a whole part of the layer's free space (nothing
+        outside the window joins it). Then the points are apart unless that part holds the
+        other one, and provided the other one is in the free space at all (its own window
+        says), as `parts_apart` has it; with the same keep-outs, the same answer."""
+        if not self.obstacles:
+            return None
+        reach = LOCAL_WINDOW * self.max_need
+        for p, q in ((a, b), (b, a)):
+            window, parts = self._free_near(region, p, reach)
+            held = [part for part in parts if shapely.covers(part, shapely.Point(p))]
+            if not held or any(shapely.intersects(part, window.exterior) for part in held):
+                continue
+            if any(shapely.covers(part, shapely.Point(q)) for part in held):
+                return False
+            _, around = self._free_near(region, q, reach)
+            return bool(any(shapely.covers(part, shapely.Point(q)) for part in around))
+        return None
+
+    def _free_near(self, region: shapely.Geometry | None, p: tuple[int, int],
+                   reach: float) -> tuple[shapely.Geometry, np.ndarray]:
+        """A square window of half-side `reach` round `p` and the free space inside it, in
+        parts (`free_parts` within the window)."""
+        window = shapely.box(p[0] - reach, p[1] - reach, p[0] + reach, p[1] + reach)
+        items = self._obstacle_items
+        box, need = self.layer.bounds[items], self.need[items]
+        near = ~((box[:, 2] + need < p[0] - reach) | (box[:, 0] - need > p[0] + reach)
+                 | (box[:, 3] + need < p[1] - reach) | (box[:, 1] - need > p[1] + reach))
+        keep_outs = shapely.union_all(shapely.buffer(self.layer.cores[items[near]], need[near],
+                                                     quad_segs=8))
+        area = window if region is None else shapely.intersection(region, window)
+        return window, shapely.get_parts(shapely.difference(area, keep_outs))
 
     def failing(self, segments: np.ndarray) -> np.ndarray:
         """Whether each segment (k, 2, 2) violates clearance: by the compiled test where it is

@@ -94,3 +94,50 @@ def test_vias_join_the_parts_of_different_layers(ask_at_once):
     assert found.legs is not None and len(found.vias) >= 1
     assert (found.legs, found.vias) == (plain.legs, plain.vias)
     assert_legal(board, found.legs, found.vias, req)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_nearby_proof_answers_as_the_whole_layers_where_it_answers(seed):
+    """On a busy board, along copper laid and taken up: for pairs of points (pads' centres,
+    boxed in or not, and points anywhere), `separated` with its nearby proof gives the whole
+    layer's answer, and the nearby proof settles pairs both ways."""
+    import random
+    from dataclasses import replace
+
+    import numpy as np
+
+    from pcbdata.router.clearance import parts_apart
+    from tests.router.test_corners import LAYERS as TWO
+    from tests.router.test_corners import NETS, _busy_board
+
+    rng = random.Random(seed)
+    board, pool = _busy_board(rng)
+    # a ring of no-net copper round (9.5, 9.5) mm: the points inside are boxed in
+    ring = tuple(rect("", TWO, *box) for box in (
+        (8.0, 8.0, 11.0, 8.4), (8.0, 10.6, 11.0, 11.0), (8.0, 8.0, 8.4, 11.0),
+        (10.6, 8.0, 11.0, 11.0)))
+    board = replace(board, copper=board.copper + ring)
+    router = WalkaroundRouter(board)
+    centres = [tuple(int(c) for c in np.mean(p.polygon, axis=0)) for p in board.copper
+               if p.kind == "pad"]
+    anywhere = [(rng.randrange(1, 19) * MM, rng.randrange(1, 19) * MM) for _ in range(20)]
+    anywhere += [(9_400_000, 9_500_000), (9_600_000, 9_500_000)] * 4  # inside the ring
+    laid: list = []
+    settled: list[bool] = []
+    for _ in range(6):
+        laid.extend(rng.sample(pool, 8))
+        if rng.random() < 0.3:
+            laid = laid[: len(laid) // 2]
+        router.update(replace(board, copper=board.copper + tuple(laid)))
+        for net in rng.sample(NETS[:4], 2):
+            rules = router._rules(net, rng.choice(TWO), rng.choice((150_000, 600_000)), 200_000)
+            whole = rules.free_parts(router._region)
+            for a, b in rng.sample([(p, q) for p in centres + anywhere
+                                    for q in centres + anywhere if p != q], 25):
+                want = parts_apart([whole], np.empty((0, 2)), a, [0], b, [0])
+                nearby = rules._apart_nearby(router._region, a, b)
+                if nearby is not None:
+                    settled.append(nearby)
+                    assert nearby == want, (a, b)
+                assert rules.separated(router._region, a, b) == want
+    assert settled.count(True) >= 5 and settled.count(False) >= 3  # it answers, both ways
