@@ -286,14 +286,18 @@ class _Rules:
         out once per rules (`separated`, `layered`'s proof that no way exists)."""
         if self._free_parts is None:
             items = self._obstacle_items
-            blocked = shapely.union_all(shapely.buffer(self.layer.cores[items],
-                                                       self.need[items], quad_segs=8))
+            blocked = self._keep_outs(items)
             if region is None:  # no outline: a box far round the keep-outs
                 lo, hi = (np.array(shapely.bounds(blocked)).reshape(2, 2)
                           if len(items) else np.zeros((2, 2)))
                 region = shapely.box(*(lo - 1e12), *(hi + 1e12))
             self._free_parts = shapely.get_parts(shapely.difference(region, blocked))
         return self._free_parts
+
+    def _keep_outs(self, items: np.ndarray) -> shapely.Geometry:
+        """The union of these layer records' keep-outs: each core buffered by its `need`."""
+        return shapely.union_all(shapely.buffer(self.layer.cores[items], self.need[items],
+                                                quad_segs=8))
 
     def separated(self, region: shapely.Geometry | None, a: tuple[int, int],
                   b: tuple[int, int]) -> bool:
@@ -318,15 +322,21 @@ class _Rules:
         if not self.obstacles:
             return None
         reach = LOCAL_WINDOW * self.max_need
+        windows: dict[tuple[int, int], tuple[shapely.Geometry, np.ndarray]] = {}
+
+        def near(point: tuple[int, int]) -> tuple[shapely.Geometry, np.ndarray]:
+            if point not in windows:
+                windows[point] = self._free_near(region, point, reach)
+            return windows[point]
+
         for p, q in ((a, b), (b, a)):
-            window, parts = self._free_near(region, p, reach)
-            held = [part for part in parts if shapely.covers(part, shapely.Point(p))]
-            if not held or any(shapely.intersects(part, window.exterior) for part in held):
+            window, parts = near(p)
+            held = parts[shapely.covers(parts, shapely.Point(p))]
+            if not len(held) or shapely.intersects(held, window.exterior).any():
                 continue
-            if any(shapely.covers(part, shapely.Point(q)) for part in held):
+            if shapely.covers(held, shapely.Point(q)).any():
                 return False
-            _, around = self._free_near(region, q, reach)
-            return bool(any(shapely.covers(part, shapely.Point(q)) for part in around))
+            return bool(shapely.covers(near(q)[1], shapely.Point(q)).any())
         return None
 
     def _free_near(self, region: shapely.Geometry | None, p: tuple[int, int],
@@ -338,10 +348,8 @@ class _Rules:
         box, need = self.layer.bounds[items], self.need[items]
         near = ~((box[:, 2] + need < p[0] - reach) | (box[:, 0] - need > p[0] + reach)
                  | (box[:, 3] + need < p[1] - reach) | (box[:, 1] - need > p[1] + reach))
-        keep_outs = shapely.union_all(shapely.buffer(self.layer.cores[items[near]], need[near],
-                                                     quad_segs=8))
         area = window if region is None else shapely.intersection(region, window)
-        return window, shapely.get_parts(shapely.difference(area, keep_outs))
+        return window, shapely.get_parts(shapely.difference(area, self._keep_outs(items[near])))
 
     def failing(self, segments: np.ndarray) -> np.ndarray:
         """Whether each segment (k, 2, 2) violates clearance: by the compiled test where it is

@@ -281,17 +281,16 @@ class Negotiator:
 
     def _repair(self, plan: Plan, work: int | None = None,
                 routes: int = REPAIR_ROUTES) -> Plan:
-        """The best round's plan repaired, one open connection at a time (shortest first,
-        boxed-in ones left), with `repair_work` more link checks and `REPAIR_ROUTES` more
-        route calls than the rounds made: an attempt (`_attempt`) lays the connection through
+        """`plan` repaired, one open connection at a time (shortest first, boxed-in ones
+        left), with `work` (default: the plan's `repair_work`) more link checks and `routes`
+        more route calls than made so far: an attempt (`_attempt`) lays the connection through
         the other connections' copper and places the ones it rips up again (given up where
         more than `repair_rips` are ripped up), and what it leaves open is settled the same
         way (`_settle`, `repair_depth` levels down). An attempt that then leaves none of them
         open is kept; one that leaves exactly one open is kept too (the open connection
         changes, their number does not), once per connection that moved so; any other is
         undone. Passes repeat while one keeps an attempt. So the repair never leaves more
-        connections open than `plan`; `work` and `routes` are its allowance (default: the
-        plan's `repair_work` and `REPAIR_ROUTES`)."""
+        connections open than `plan`."""
         self.budget_work = self.work + (self.repair_work if work is None else work)
         self.budget = self.calls + routes
         fixed, max_rips = self.fixed_router, self.max_rips
