@@ -5,6 +5,7 @@ layer columns the copper layer's index in `layers` (KiCad's stack order, F.Cu fi
 """
 from __future__ import annotations
 
+from collections import Counter
 from typing import Any
 
 import numpy as np
@@ -151,8 +152,11 @@ def geometry_part(static: StaticBoard, snap: dict, space: Any) -> tuple[dict, bo
     tracks, vias = _copper_rows(static, snap["copper"])
     labels = snap["pad_cluster"]
     connected = np.zeros(space["pad_connected"].shape, dtype=np.int8)
-    for i, pad in enumerate(static.pads[: connected.shape[0]]):
-        connected[i] = any(labels[j] == labels[i] for j in static.pads_of(pad.net) if j != i)
+    shown = static.pads[: connected.shape[0]]
+    if shown:  # a pad is connected where another pad of its net shares its cluster
+        sharing = Counter((pad.net, labels[i]) for i, pad in enumerate(static.pads))
+        connected[: len(shown)] = [sharing[pad.net, labels[i]] > 1
+                                   for i, pad in enumerate(shown)]
     edges = ratsnest(static, labels)
     track_rows, track_count = _fill(space["tracks"], tracks)
     via_rows, via_count = _fill(space["vias"], vias)

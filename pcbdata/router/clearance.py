@@ -36,9 +36,10 @@ _DENSE_PAIRS = 20_000
 # heading given as a pair of signs, at [sx + 1, sy + 1].
 HEADINGS = _NORMALS
 _HEADING_INDEX = np.array([[5, 4, 3], [6, -1, 2], [7, 0, 1]])
-# The window of the nearby proof that two points are apart (`_Rules._apart_nearby`), in
-# multiples of the largest distance an obstacle's core keeps from the track's centre.
-LOCAL_WINDOW = 10.0
+# The windows of the nearby proof that two points are apart (`apart_nearby`), each tried in
+# turn where the one before settles nothing: their half-sides, in multiples of the largest
+# distance an obstacle's core keeps from the track's centre.
+LOCAL_WINDOWS = (10.0, 30.0)
 # Keep-outs for the ray screen (see `_Rules.free`): the allowed distance less this much (nm),
 # so whatever they touch violates the clearance beyond float doubt.
 _SCREEN_SHRINK = 1.0
@@ -139,33 +140,103 @@ def parts_apart(parts: list[np.ndarray], spots: np.ndarray, a: tuple[int, int],
     parts of several layers that one of `spots` (a via's place) lies in are joined. Every way
     runs inside one part per layer and changes layer at a spot, so True is certain; False
     where in doubt (an end in no part, e.g. within a keep-out, proves nothing)."""
-    offsets = np.cumsum([0] + [len(p) for p in parts])
-    root = np.arange(offsets[-1])
+    joined = _JoinedParts(parts, spots)
+    starts, goals = joined.holding(a, a_layers), joined.holding(b, b_layers)
+    return bool(starts and goals) and not starts & goals
 
-    def find(x: int) -> int:
+
+def apart_nearby(rules: list[_Rules], region: shapely.Geometry | None, spots: np.ndarray,
+                 a: tuple[int, int], a_layers: list[int], b: tuple[int, int],
+                 b_layers: list[int]) -> bool | None:
+    """`parts_apart` over the layers of `rules` (one request's, per layer) from the free
+    space inside a window round one point, or None where that does not settle it.
+
+    The free space of a layer inside a window is the board there less the keep-outs of the
+    obstacles that reach into it (`_Rules._free_near`); a part of it that does not reach the
+    window's edge is a whole part of the layer's free space (nothing outside the window joins
+    it). Parts joined inside the window are joined on the whole layers: where those joined to
+    the point's parts (through the spots, on any layer) hold the other point on one of its
+    layers, the points are not apart. Where every part joined to the point's parts is a whole
+    part, those parts are exactly the point's in `parts_apart`: the points are apart, provided
+    the other point is in the free space at all (its own window says), as `parts_apart` has
+    it. With the same keep-outs, the same answer. The windows (`LOCAL_WINDOWS`) are tried
+    from the smallest, each where the one before settles nothing."""
+    if not any(r.obstacles for r in rules):
+        return None
+    need = max(r.max_need for r in rules)
+    for size in LOCAL_WINDOWS:
+        answer = _apart_within(rules, region, spots, a, a_layers, b, b_layers, size * need)
+        if answer is not None:
+            return answer
+    return None
+
+
+def _apart_within(rules: list[_Rules], region: shapely.Geometry | None, spots: np.ndarray,
+                  a: tuple[int, int], a_layers: list[int], b: tuple[int, int],
+                  b_layers: list[int], reach: float) -> bool | None:
+    """`apart_nearby` inside windows of half-side `reach`."""
+
+    def near(point: tuple[int, int]) -> tuple[shapely.Geometry, list[np.ndarray]]:
+        frees = [r._free_near(region, point, reach) for r in rules]
+        return frees[0][0], [parts for _, parts in frees]
+
+    for p, p_layers, q, q_layers in ((a, a_layers, b, b_layers), (b, b_layers, a, a_layers)):
+        window, parts = near(p)
+        lo, hi = np.array(p) - reach, np.array(p) + reach
+        inside = (np.all((spots >= lo) & (spots <= hi), axis=1) if len(spots)
+                  else np.zeros(0, dtype=bool))
+        joined = _JoinedParts(parts, spots[inside])
+        starts = joined.holding(p, p_layers)
+        if not starts:
+            continue
+        mine = [np.flatnonzero(np.isin(joined.roots(k), list(starts)))
+                for k in range(len(parts))]
+        if any(shapely.covers(parts[k][mine[k]], shapely.Point(q)).any() for k in q_layers):
+            return False  # joined inside the window, so joined on the whole layers
+        if any(shapely.intersects(parts[k][m], window.exterior).any()
+               for k, m in enumerate(mine)):
+            continue
+        return any(bool(shapely.covers(near(q)[1][k], shapely.Point(q)).any())
+                   for k in q_layers)
+    return None
+
+
+class _JoinedParts:
+    """Free-space parts of several layers (`parts[k]`: layer k's), those that one of `spots`
+    lies in joined (a union-find over all layers' parts, numbered layer by layer)."""
+
+    def __init__(self, parts: list[np.ndarray], spots: np.ndarray):
+        self.parts = parts
+        self.offsets = np.cumsum([0] + [len(p) for p in parts])
+        self.root = np.arange(self.offsets[-1])
+        if len(spots):
+            points = shapely.points(np.asarray(spots, dtype=float))
+            pairs = []
+            for k, layer_parts in enumerate(parts):
+                spot, part = shapely.STRtree(layer_parts).query(points, predicate="covered_by")
+                pairs.append(np.stack([spot, part + self.offsets[k]], axis=1))
+            joined = np.concatenate(pairs)
+            joined = joined[np.lexsort((joined[:, 1], joined[:, 0]))]
+            for (spot_a, part_a), (spot_b, part_b) in zip(joined, joined[1:]):
+                if spot_a == spot_b:
+                    self.root[self.find(int(part_a))] = self.find(int(part_b))
+
+    def find(self, x: int) -> int:
+        root = self.root
         while root[x] != x:
             root[x] = root[root[x]]
             x = int(root[x])
         return x
 
-    if len(spots):
-        points = shapely.points(np.asarray(spots, dtype=float))
-        pairs = []
-        for k, layer_parts in enumerate(parts):
-            spot, part = shapely.STRtree(layer_parts).query(points, predicate="covered_by")
-            pairs.append(np.stack([spot, part + offsets[k]], axis=1))
-        joined = np.concatenate(pairs)
-        joined = joined[np.lexsort((joined[:, 1], joined[:, 0]))]
-        for (spot_a, part_a), (spot_b, part_b) in zip(joined, joined[1:]):
-            if spot_a == spot_b:
-                root[find(int(part_a))] = find(int(part_b))
+    def holding(self, point: tuple[int, int], layers: list[int]) -> set[int]:
+        """The roots of the parts that hold `point` on these layers."""
+        return {self.find(int(self.offsets[k] + j)) for k in layers
+                for j in np.flatnonzero(shapely.covers(self.parts[k], shapely.Point(point)))}
 
-    def holding(point: tuple[int, int], layers: list[int]) -> set[int]:
-        return {find(int(offsets[k] + j)) for k in layers
-                for j in np.flatnonzero(shapely.covers(parts[k], shapely.Point(point)))}
-
-    starts, goals = holding(a, a_layers), holding(b, b_layers)
-    return bool(starts and goals) and not starts & goals
+    def roots(self, k: int) -> np.ndarray:
+        """The root of each of layer k's parts."""
+        return np.array([self.find(int(self.offsets[k] + j)) for j in range(len(self.parts[k]))],
+                        dtype=np.int64)
 
 
 class _Rules:
@@ -199,6 +270,9 @@ class _Rules:
         self._obstacle_reach = self.reach[self._obstacle_items]
         self._screen: CapsuleScreen | None = None
         self._free_parts: np.ndarray | None = None  # `separated`'s free space, in parts
+        # the free space inside windows (`_free_near`), by (point, half-side)
+        self._free_windows: dict[tuple[tuple[int, int], float],
+                                 tuple[shapely.Geometry, np.ndarray]] = {}
         # Kept for later searches under the same rules (see `WalkaroundRouter._rules`): the
         # search's corner nodes and ray bounds by (x, y, heading).
         self.corners: np.ndarray | None = None
@@ -302,10 +376,10 @@ class _Rules:
     def separated(self, region: shapely.Geometry | None, a: tuple[int, int],
                   b: tuple[int, int]) -> bool:
         """Whether no clear path of this request's track joins points a and b on this layer
-        (`parts_apart` over `free_parts`: True only where certain). Asked first inside a
-        window round each point (`_apart_nearby`), which answers alike where it answers at
-        all, without the whole layer's free space."""
-        nearby = self._apart_nearby(region, a, b)
+        (`parts_apart` over `free_parts`: True only where certain). Unless the whole layer's
+        free space is at hand, asked first inside a window round each point
+        (`_apart_nearby`), which answers alike where it answers at all, without it."""
+        nearby = self._apart_nearby(region, a, b) if self._free_parts is None else None
         if nearby is not None:
             return nearby
         return parts_apart([self.free_parts(region)], np.empty((0, 2)), a, [0], b, [0])
@@ -313,43 +387,24 @@ class _Rules:
     def _apart_nearby(self, region: shapely.Geometry | None, a: tuple[int, int],
                       b: tuple[int, int]) -> bool | None:
         """`separated` from the free space inside a window round one point, or None where
-        that does not settle it. The free space inside a window is the board there less the
-        keep-outs of the obstacles that reach into it; a part of it that holds the point and
-        does not reach the window's edge is a whole part of the layer's free space (nothing
-        outside the window joins it). Then the points are apart unless that part holds the
-        other one, and provided the other one is in the free space at all (its own window
-        says), as `parts_apart` has it; with the same keep-outs, the same answer."""
-        if not self.obstacles:
-            return None
-        reach = LOCAL_WINDOW * self.max_need
-        windows: dict[tuple[int, int], tuple[shapely.Geometry, np.ndarray]] = {}
-
-        def near(point: tuple[int, int]) -> tuple[shapely.Geometry, np.ndarray]:
-            if point not in windows:
-                windows[point] = self._free_near(region, point, reach)
-            return windows[point]
-
-        for p, q in ((a, b), (b, a)):
-            window, parts = near(p)
-            held = parts[shapely.covers(parts, shapely.Point(p))]
-            if not len(held) or shapely.intersects(held, window.exterior).any():
-                continue
-            if shapely.covers(held, shapely.Point(q)).any():
-                return False
-            return bool(shapely.covers(near(q)[1], shapely.Point(q)).any())
-        return None
+        that does not settle it (`apart_nearby` on this layer alone)."""
+        return apart_nearby([self], region, np.empty((0, 2)), a, [0], b, [0])
 
     def _free_near(self, region: shapely.Geometry | None, p: tuple[int, int],
                    reach: float) -> tuple[shapely.Geometry, np.ndarray]:
         """A square window of half-side `reach` round `p` and the free space inside it, in
-        parts (`free_parts` within the window)."""
+        parts (`free_parts` within the window; worked out once per rules, point and size)."""
+        if (p, reach) in self._free_windows:
+            return self._free_windows[p, reach]
         window = shapely.box(p[0] - reach, p[1] - reach, p[0] + reach, p[1] + reach)
         items = self._obstacle_items
         box, need = self.layer.bounds[items], self.need[items]
         near = ~((box[:, 2] + need < p[0] - reach) | (box[:, 0] - need > p[0] + reach)
                  | (box[:, 3] + need < p[1] - reach) | (box[:, 1] - need > p[1] + reach))
         area = window if region is None else shapely.intersection(region, window)
-        return window, shapely.get_parts(shapely.difference(area, self._keep_outs(items[near])))
+        free = window, shapely.get_parts(shapely.difference(area, self._keep_outs(items[near])))
+        self._free_windows[p, reach] = free
+        return free
 
     def failing(self, segments: np.ndarray) -> np.ndarray:
         """Whether each segment (k, 2, 2) violates clearance: by the compiled test where it is

@@ -502,17 +502,30 @@ class Negotiator:
         self._stale = True
 
     def _blockers(self, index: int, wire: Wire) -> list[int]:
-        """Planned connections of other nets whose copper is too close to `wire`'s."""
+        """Planned connections of other nets whose copper is too close to `wire`'s: an item of
+        theirs on a layer of one of its items nearer than the two radii and the larger
+        clearance allow (exact distances)."""
         net, rule = wire.net, self.rules[wire.net]
-        mine = wire.items(rule, self.layers)
-        shapes = [(i, *copper_core(i)) for i in mine]
-        out = []
-        for other, items in sorted(self.items.items()):
-            if self.connections[other].net == net or self.rips[other] >= self.max_rips:
-                continue
-            if any(_too_close(a, ca, ra, b) for a, ca, ra in shapes for b in items):
-                out.append(other)
-        return out
+        others = [(other, items) for other, items in sorted(self.items.items())
+                  if self.connections[other].net != net and self.rips[other] < self.max_rips]
+        flat = [b for _, items in others for b in items]
+        if not flat:
+            return []
+        bits = {layer: 1 << k for k, layer in enumerate(sorted({
+            lay for b in flat for lay in b.layers} | set(self.layers)))}
+        owner = np.repeat(np.arange(len(others)), [len(items) for _, items in others])
+        shapes = [self.bare.prepared(b) for b in flat]
+        cores = np.array([p.core for p in shapes], dtype=object)
+        radius = np.array([p.radius for p in shapes])
+        clearance = np.array([b.clearance for b in flat])
+        layers = np.array([sum(bits[lay] for lay in b.layers) for b in flat])
+        close = np.zeros(len(flat), dtype=bool)
+        for a in wire.items(rule, self.layers):
+            mine = self.bare.prepared(a)
+            todo = np.flatnonzero(~close & ((layers & sum(bits[lay] for lay in a.layers)) != 0))
+            need = mine.radius + radius[todo] + np.maximum(a.clearance, clearance[todo])
+            close[todo] = shapely.distance(mine.core, cores[todo]) < need - TOLERANCE
+        return [others[k][0] for k in np.unique(owner[close])]
 
     # --- ways ---
 
@@ -649,10 +662,3 @@ def _better(plan: Plan, repaired: tuple[Plan, bool] | None) -> Plan:
 def _rank(plan: Plan) -> tuple:
     return (len(plan.open), math.fsum(w.length for w in plan.wires.values()))
 
-
-def _too_close(a: CopperItem, core_a, radius_a: float, b: CopperItem) -> bool:
-    if not set(a.layers) & set(b.layers):
-        return False
-    core_b, radius_b = copper_core(b)
-    need = radius_a + radius_b + max(a.clearance, b.clearance) - TOLERANCE
-    return bool(shapely.distance(core_a, core_b) < need)

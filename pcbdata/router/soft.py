@@ -13,8 +13,8 @@ import numpy as np
 import shapely
 
 from pcbdata.router import clearance_kernel
-from pcbdata.router.clearance import _Layer, _lines, _prepare, _Rules
-from pcbdata.router.geometry import CopperItem, copper_core
+from pcbdata.router.clearance import _Layer, _lines, _Rules
+from pcbdata.router.geometry import CopperItem
 
 
 @dataclass(frozen=True)
@@ -37,8 +37,7 @@ class SoftLayer:
         records = []
         for i in chosen:
             item = soft.items[i]
-            prepared = router._cache.get(item) or _prepare(*copper_core(item))
-            records.append((item.kind, item.net, item.clearance, prepared))
+            records.append((item.kind, item.net, item.clearance, router.prepared(item)))
         self.empty = not records
         if self.empty:
             return

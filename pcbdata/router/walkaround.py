@@ -183,6 +183,23 @@ class WalkaroundRouter:
         self._sorted = (out, counts)
         return out, None, None
 
+    def prepared(self, item: CopperItem) -> _Prepared:
+        """`item`'s prepared shape: the board's, else worked out once and remembered with the
+        routers made from this one (`_Memory.PREPARED` items at most; a planner's copper that
+        comes and goes, e.g. soft copper, `pcbdata.router.soft`)."""
+        shape = self._cache.get(item)
+        if shape is not None:
+            return shape
+        memory = self._shared.prepared
+        shape = memory.get(item)
+        if shape is None:
+            shape = memory[item] = _prepare(*copper_core(item))
+            if len(memory) > _Memory.PREPARED:
+                memory.popitem(last=False)
+        else:
+            memory.move_to_end(item)
+        return shape
+
     def _layer_key(self, layer: str) -> _StateKey:
         """What a layer's answers depend on: the board outline, the edge clearance and the
         layer's items. Layers, rules and routes are remembered under it (`_Memory`)."""
@@ -448,6 +465,7 @@ class _Memory:
     others' entries valid. Least recently used entries go first."""
 
     LAYERS, RULES, ROUTES = 8, 32, 256
+    PREPARED = 100_000
 
     def __init__(self) -> None:
         self.layers: OrderedDict = OrderedDict()
@@ -457,6 +475,8 @@ class _Memory:
         #: Recent states' corner nodes by layer, outline, width and clearance
         #: (`pcbdata.router.corners`), most recent first.
         self.corner_sets: OrderedDict = OrderedDict()
+        #: Prepared shapes of items off the routers' boards (`WalkaroundRouter.prepared`).
+        self.prepared: OrderedDict = OrderedDict()
         #: Link checks made by searches worked out (not remembered) so far: the routers'
         #: counted work, which a caller may budget (`pcbdata.router.negotiate`).
         self.work = 0

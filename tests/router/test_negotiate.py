@@ -392,3 +392,45 @@ def test_a_settling_is_kept_only_where_it_leaves_nothing_open():
     plan, tried = _attempts(script, {0}, depth=1)
     assert plan.open == {1: "congestion"} and sorted(plan.wires) == [0, 2, 3]
     assert [i for i, _ in tried] == [0, 1, 2, 1]
+
+
+def test_a_ways_blockers_are_the_other_nets_planned_copper_too_close_on_its_layers():
+    """`_blockers`: the planned connections of other nets with an item on a layer of the way's
+    nearer than the clearance allows (a track across it on its layer, a via on both layers);
+    not one on the other layer only, one far enough, one of the way's own net, nor one ripped
+    up `max_rips` times (hard copper). The same as a pair-by-pair check of exact shapes."""
+    two = ("F.Cu", "B.Cu")
+    outline = ((((0, 0), (mm(30), 0), (mm(30), mm(30)), (0, mm(30)))),)
+    board = BoardGeometry(outline=outline, copper=(), edge_clearance=mm(0.2))
+    end = End(mm(1), mm(1), two, 0)
+    nets = ("A", "B", "C", "D", "E", "F", "G")
+    rules = {n: NetRule(mm(0.2), mm(0.2), mm(0.6), mm(0.3)) for n in nets}
+    negotiator = Negotiator(board, two, rules, [Connection(n, end, end) for n in nets])
+
+    def track(net, layer, a, b):
+        return Wire(net, ((layer, ((mm(a[0]), mm(a[1])), (mm(b[0]), mm(b[1])))),))
+
+    planned = {
+        0: track("A", "F.Cu", (10, 10), (20, 10)),  # across the way on its layer
+        1: track("B", "B.Cu", (10, 10), (20, 10)),  # across it on the other layer only
+        2: track("C", "F.Cu", (10, 12), (20, 12)),  # 1 mm past its end: clear
+        3: Wire("D", (("F.Cu", ((mm(15.5), mm(9.5)), (mm(15.5), mm(9.6)))),
+                      ("B.Cu", ((mm(15.5), mm(9.6)), (mm(16), mm(9.6))))),
+                ((mm(15.5), mm(9.6)),)),  # its via beside the way, on both layers
+        4: track("E", "F.Cu", (14, 9), (16, 9)),  # the way's own net
+        5: track("F", "F.Cu", (10, 9.5), (20, 9.5)),  # across it, but hard copper
+    }
+    for index, wire in planned.items():
+        negotiator._add(index, wire)
+    negotiator.rips[5] = negotiator.max_rips
+    way = track("E", "F.Cu", (15, 8), (15, 11))
+    found = negotiator._blockers(6, way)
+    assert found == [0, 3]
+    mine = way.items(rules["E"], two)
+    expect = sorted(k for k, items in negotiator.items.items()
+                    if planned[k].net != "E" and negotiator.rips[k] < negotiator.max_rips
+                    and any(set(a.layers) & set(b.layers) and shapely.distance(
+                        copper_core(a)[0], copper_core(b)[0]) - copper_core(a)[1]
+                        - copper_core(b)[1] < max(a.clearance, b.clearance)
+                        for a in mine for b in items))
+    assert found == expect

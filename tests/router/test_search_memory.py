@@ -158,3 +158,27 @@ def test_rays_kept_from_a_state_with_less_copper_never_rule_out_a_clear_link():
     assert WalkaroundRouter(walled).route(req).path == router.route(req).path
     router.update(board(*geometry.copper[:-1]))  # a pillar gone: old bounds may be too short
     assert not router._rules(req.net, req.layer, req.width, req.clearance).rays
+
+
+def test_shapes_off_the_board_are_prepared_once_for_every_router_made_from_one(monkeypatch):
+    """`WalkaroundRouter.prepared`: a board item's shape is the board's; an item off the
+    board (a planner's soft copper) is prepared as a fresh preparation would, once for the
+    router and those made from it (`with_board`), the least recently used forgotten first."""
+    from pcbdata.router import walkaround
+    from pcbdata.router.clearance import _prepare
+    from pcbdata.router.geometry import copper_core
+
+    geometry, _ = _pillar_maze()
+    router = WalkaroundRouter(geometry)
+    on_board = geometry.copper[0]
+    assert router.prepared(on_board) is router._cache[on_board]
+    off = [CopperItem("track", "X", ("F.Cu",), start=(k * MM, MM), end=(k * MM, 2 * MM),
+                      width=200_000, clearance=200_000) for k in range(1, 5)]
+    first = router.prepared(off[0])
+    assert first == _prepare(*copper_core(off[0]))
+    other = router.with_board(geometry)
+    assert other.prepared(off[0]) is first  # remembered for the routers made from it
+    monkeypatch.setattr(walkaround._Memory, "PREPARED", 2)
+    for item in off[1:]:
+        router.prepared(item)
+    assert list(router._shared.prepared) == off[2:]  # the first two forgotten, oldest first

@@ -96,23 +96,20 @@ def test_vias_join_the_parts_of_different_layers(ask_at_once):
     assert_legal(board, found.legs, found.vias, req)
 
 
-@pytest.mark.parametrize("seed", [1, 2])
-def test_the_nearby_proof_answers_as_the_whole_layers_where_it_answers(seed):
-    """On a busy board, along copper laid and taken up: for pairs of points (pads' centres,
-    boxed in or not, and points anywhere), `separated` with its nearby proof gives the whole
-    layer's answer, and the nearby proof settles pairs both ways."""
+def _busy_states(seed: int):
+    """A busy board with a ring of no-net copper round (9.5, 9.5) mm on both layers (the
+    points inside are boxed in), along copper laid and taken up: per state the router, and
+    points to pair (pads' centres, points anywhere, points inside the ring)."""
     import random
     from dataclasses import replace
 
     import numpy as np
 
-    from pcbdata.router.clearance import parts_apart
     from tests.router.test_corners import LAYERS as TWO
-    from tests.router.test_corners import NETS, _busy_board
+    from tests.router.test_corners import _busy_board
 
     rng = random.Random(seed)
     board, pool = _busy_board(rng)
-    # a ring of no-net copper round (9.5, 9.5) mm: the points inside are boxed in
     ring = tuple(rect("", TWO, *box) for box in (
         (8.0, 8.0, 11.0, 8.4), (8.0, 10.6, 11.0, 11.0), (8.0, 8.0, 8.4, 11.0),
         (10.6, 8.0, 11.0, 11.0)))
@@ -123,17 +120,31 @@ def test_the_nearby_proof_answers_as_the_whole_layers_where_it_answers(seed):
     anywhere = [(rng.randrange(1, 19) * MM, rng.randrange(1, 19) * MM) for _ in range(20)]
     anywhere += [(9_400_000, 9_500_000), (9_600_000, 9_500_000)] * 4  # inside the ring
     laid: list = []
-    settled: list[bool] = []
     for _ in range(6):
         laid.extend(rng.sample(pool, 8))
         if rng.random() < 0.3:
             laid = laid[: len(laid) // 2]
         router.update(replace(board, copper=board.copper + tuple(laid)))
+        yield rng, router, centres + anywhere
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_nearby_proof_answers_as_the_whole_layers_where_it_answers(seed):
+    """On a busy board, along copper laid and taken up: for pairs of points (pads' centres,
+    boxed in or not, and points anywhere), `separated` with its nearby proof gives the whole
+    layer's answer, and the nearby proof settles pairs both ways."""
+    import numpy as np
+
+    from pcbdata.router.clearance import parts_apart
+    from tests.router.test_corners import LAYERS as TWO
+    from tests.router.test_corners import NETS
+
+    settled: list[bool] = []
+    for rng, router, points in _busy_states(seed):
         for net in rng.sample(NETS[:4], 2):
             rules = router._rules(net, rng.choice(TWO), rng.choice((150_000, 600_000)), 200_000)
             whole = rules.free_parts(router._region)
-            for a, b in rng.sample([(p, q) for p in centres + anywhere
-                                    for q in centres + anywhere if p != q], 25):
+            for a, b in rng.sample([(p, q) for p in points for q in points if p != q], 25):
                 want = parts_apart([whole], np.empty((0, 2)), a, [0], b, [0])
                 nearby = rules._apart_nearby(router._region, a, b)
                 if nearby is not None:
@@ -141,3 +152,71 @@ def test_the_nearby_proof_answers_as_the_whole_layers_where_it_answers(seed):
                     assert nearby == want, (a, b)
                 assert rules.separated(router._region, a, b) == want
     assert settled.count(True) >= 5 and settled.count(False) >= 3  # it answers, both ways
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_the_nearby_proof_over_layers_answers_as_the_whole_layers(seed):
+    """The layered search's proof (`apart_nearby` over both layers, parts joined through via
+    spots) on the same states: where it answers, `parts_apart` over the whole layers gives
+    the same answer, for ends on one layer or both, with spots about the board and inside
+    the ring (which join the ring's insides across layers, still boxed in)."""
+    import numpy as np
+
+    from pcbdata.router.clearance import apart_nearby, parts_apart
+    from tests.router.test_corners import LAYERS as TWO
+    from tests.router.test_corners import NETS
+
+    settled: list[bool] = []
+    for rng, router, points in _busy_states(seed):
+        spots = np.array([(rng.randrange(1, 39) * MM // 2, rng.randrange(1, 39) * MM // 2)
+                          for _ in range(60)] + [(9_500_000, 9_300_000)], dtype=np.int64)
+        for net in rng.sample(NETS[:4], 2):
+            width = rng.choice((150_000, 600_000))
+            rules = [router._rules(net, lay, width, 200_000) for lay in TWO]
+            whole = [r.free_parts(router._region) for r in rules]
+            for a, b in rng.sample([(p, q) for p in points for q in points if p != q], 25):
+                a_layers, b_layers = rng.choice(([0], [1], [0, 1])), rng.choice(([0], [1], [0, 1]))
+                want = parts_apart(whole, spots, a, a_layers, b, b_layers)
+                nearby = apart_nearby(rules, router._region, spots, a, a_layers, b, b_layers)
+                if nearby is not None:
+                    settled.append(nearby)
+                    assert nearby == want, (a, a_layers, b, b_layers)
+    assert settled.count(True) >= 5 and settled.count(False) >= 3  # it answers, both ways
+
+
+def test_the_nearby_proof_follows_vias_out_of_a_boxed_in_part():
+    """A ring on F.Cu only round (10, 10) mm with a via spot inside it: the point inside is
+    joined through the spot to B.Cu's open space, so it is not apart from a far point on
+    B.Cu, and the window cannot settle that (None); a ring on both layers round (20, 20)
+    with a spot inside is boxed in on both: the window settles it both ways. In open space
+    a point near enough is joined inside the window (settled); on another layer with no spot
+    it is apart, which only the whole layers show."""
+    import numpy as np
+
+    from pcbdata.router.clearance import apart_nearby, parts_apart
+
+    walls = ((-2.0, -2.0, 2.0, -1.6), (-2.0, 1.6, 2.0, 2.0), (-2.0, -2.0, -1.6, 2.0),
+             (1.6, -2.0, 2.0, 2.0))
+    board = BoardGeometry(OUTLINE, tuple(
+        rect("GND", layers, cx + x0, cy + y0, cx + x1, cy + y1)
+        for layers, cx, cy in ((("F.Cu",), 10, 10), (LAYERS, 20, 20))
+        for x0, y0, x1, y1 in walls), 300_000)
+    router = WalkaroundRouter(board)
+    rules = [router._rules("A", lay, 250_000, 200_000) for lay in LAYERS]
+    whole = [r.free_parts(router._region) for r in rules]
+    spots = np.array([(10 * MM, 9_500_000), (20 * MM, 19_500_000)], dtype=np.int64)
+    far, in_f, in_both = (25 * MM, 5 * MM), (10 * MM, 10 * MM), (20 * MM, 20 * MM)
+    cases = [  # (a, a_layers, b, b_layers, spots, the answer, whether the window settles it)
+        (in_f, [0], far, [1], spots, False, False),
+        (in_f, [0], far, [1], spots[:0], True, True),
+        (in_both, [0], (20_500_000, 20 * MM), [1], spots, False, True),
+        (in_both, [0], (20_500_000, 20 * MM), [1], spots[:0], True, True),
+        (in_both, [1], far, [0, 1], spots, True, True),
+        # open space, the other point inside the window: joined there, so joined
+        ((5 * MM, 5 * MM), [0], (6 * MM, 5 * MM), [0], spots[:0], False, True),
+        ((5 * MM, 5 * MM), [1], (6 * MM, 5 * MM), [0], spots[:0], True, False),
+    ]
+    for a, a_layers, b, b_layers, these, answer, settles in cases:
+        assert parts_apart(whole, these, a, a_layers, b, b_layers) == answer
+        nearby = apart_nearby(rules, router._region, these, a, a_layers, b, b_layers)
+        assert nearby == (answer if settles else None), (a, b, len(these))
