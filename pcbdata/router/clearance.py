@@ -145,6 +145,21 @@ def parts_apart(parts: list[np.ndarray], spots: np.ndarray, a: tuple[int, int],
     return bool(starts and goals) and not starts & goals
 
 
+def layers_apart(rules: list[_Rules], region: shapely.Geometry | None, spots: np.ndarray,
+                 a: tuple[int, int], a_layers: list[int], b: tuple[int, int],
+                 b_layers: list[int]) -> bool:
+    """`parts_apart` over the layers of `rules` (one request's, per layer: each layer's
+    `free_parts`, joined through `spots`), settled first inside windows round the points
+    (`apart_nearby`, the same answer where it answers) unless every layer's free space is at
+    hand already. The walkaround search's proof (one layer, no spots) and the layered
+    search's."""
+    if any(r._free_parts is None for r in rules):
+        nearby = apart_nearby(rules, region, spots, a, a_layers, b, b_layers)
+        if nearby is not None:
+            return nearby
+    return parts_apart([r.free_parts(region) for r in rules], spots, a, a_layers, b, b_layers)
+
+
 def apart_nearby(rules: list[_Rules], region: shapely.Geometry | None, spots: np.ndarray,
                  a: tuple[int, int], a_layers: list[int], b: tuple[int, int],
                  b_layers: list[int]) -> bool | None:
@@ -376,13 +391,8 @@ class _Rules:
     def separated(self, region: shapely.Geometry | None, a: tuple[int, int],
                   b: tuple[int, int]) -> bool:
         """Whether no clear path of this request's track joins points a and b on this layer
-        (`parts_apart` over `free_parts`: True only where certain). Unless the whole layer's
-        free space is at hand, asked first inside a window round each point
-        (`_apart_nearby`), which answers alike where it answers at all, without it."""
-        nearby = self._apart_nearby(region, a, b) if self._free_parts is None else None
-        if nearby is not None:
-            return nearby
-        return parts_apart([self.free_parts(region)], np.empty((0, 2)), a, [0], b, [0])
+        (`layers_apart` on this layer alone: True only where certain)."""
+        return layers_apart([self], region, np.empty((0, 2)), a, [0], b, [0])
 
     def _apart_nearby(self, region: shapely.Geometry | None, a: tuple[int, int],
                       b: tuple[int, int]) -> bool | None:

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pcbdata.router import clearance_kernel
-from pcbdata.router.clearance import HEADINGS, apart_nearby, parts_apart
+from pcbdata.router.clearance import HEADINGS, layers_apart
 from pcbdata.router.corners import corner_nodes, unique_points
 from pcbdata.router.geometry import Point, simplify_path
 from pcbdata.router.search import (
@@ -271,20 +271,13 @@ class _Layered:
         the router asks for it (`WalkaroundRouter.prove_separation`): each layer's free space
         (`_Rules.free_parts`, hard copper only: soft copper is crossed, never in the way),
         joined through the via spots, keeps the start apart from the goal
-        (`clearance.parts_apart`); unless every layer's free space is at hand, asked first
-        inside a window round each end (`clearance.apart_nearby`), which answers alike where it
-        answers at all, without them."""
+        (`clearance.layers_apart`: settled first inside windows round the ends where it can
+        be)."""
         if self.asked or self.checks < SEPARATION_AFTER or not self.router.prove_separation:
             return False
         self.asked = True
-        if any(rules._free_parts is None for rules in self.rules):
-            nearby = apart_nearby(self.rules, self.router._region, self.vias, self.req.start,
-                                  self.starts, self.req.goal, self.goals)
-            if nearby is not None:
-                return nearby
-        parts = [rules.free_parts(self.router._region) for rules in self.rules]
-        return parts_apart(parts, self.vias, self.req.start, self.starts, self.req.goal,
-                           self.goals)
+        return layers_apart(self.rules, self.router._region, self.vias, self.req.start,
+                            self.starts, self.req.goal, self.goals)
 
     def _expand(self, k: int, graph: _LayerGraph, offset: int, i: int, g, parent,
                 closed) -> None:

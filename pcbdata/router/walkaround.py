@@ -125,15 +125,13 @@ class WalkaroundRouter:
         self.board = board
         items, came, went = self._sorted_copper(board.copper)
         if came is None or went is None:  # a board of its own: its items' shapes only
-            self._cache = {
-                item: self._cache.get(item) or _prepare(*copper_core(item)) for item in items
-            }
+            self._cache = {item: self._cache.get(item) or self._shape(item) for item in items}
         else:  # the last board's, less the items gone, with those come
             for item in went:
                 self._cache.pop(item, None)
             for item in came:
                 if item not in self._cache:
-                    self._cache[item] = _prepare(*copper_core(item))
+                    self._cache[item] = self._shape(item)
         same_edges = old is not None and old.edge_clearance == board.edge_clearance and (
             old.outline is board.outline or old.outline == board.outline)
         if not same_edges:
@@ -199,6 +197,11 @@ class WalkaroundRouter:
         else:
             memory.move_to_end(item)
         return shape
+
+    def _shape(self, item: CopperItem) -> _Prepared:
+        """A shape for an item coming onto the board: the one `prepared` remembers, else
+        worked out (not remembered: the board keeps it)."""
+        return self._shared.prepared.get(item) or _prepare(*copper_core(item))
 
     def _layer_key(self, layer: str) -> _StateKey:
         """What a layer's answers depend on: the board outline, the edge clearance and the
