@@ -52,6 +52,7 @@ def plan_once(env, board_id: str, **options) -> dict:
     return {"open": len(plan.open), "route_calls": plan.stats.get("route_calls"),
             "work": plan.stats.get("work"),
             "rips": plan.stats.get("rips"), "repaired": plan.stats.get("repaired"),
+            "variant": plan.stats.get("variant"),
             "work_by_search": plan.stats.get("work_by_search"),
             "digest": digest(plan),
             "cpu_s": round(seconds, 2)}

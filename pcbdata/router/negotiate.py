@@ -40,7 +40,13 @@ down; a settling is kept where it leaves nothing open), and the attempt is kept 
 leaves none of them open, or exactly one (the open connection changes, once per connection),
 else undone; the layered searches of the repair weight their
 heuristic (`REPAIR_WEIGHT`), a bounded suboptimal A* that finds long priced ways the rounds'
-searches run out of budget on. That is the plan. Work is counted in route calls
+searches run out of budget on. Where that plan leaves a connection open that is not boxed in,
+a second variant of the whole plan is made from a clean board with smaller budgets
+(`VARIANT_WORK`, `VARIANT_REPAIR_WORK`): the same rounds and repairs, but a walkaround leg
+longer than `DETOUR` times its ends' distance gives way to the layered search's way where that
+costs less (on congested boards such legs wind round half the board and crowd the others out),
+and the variant is kept where it leaves fewer open (boards differ in which of the two
+completes them). That is the plan. Work is counted in route calls
 (`budget_routes`), each search's expansions and link checks, and the link checks of all the
 plan's searches together (`budget_work`), never timed: the same board gives the same plan on
 any machine. The planner's routers prove where they can that a search has no way
@@ -70,6 +76,7 @@ from pcbdata.router.geometry import (
     CopperItem,
     Point,
     copper_core,
+    octilinear_length,
 )
 from pcbdata.router.layered import VIA_COST, LayeredRequest
 from pcbdata.router.requests import RouteRequest
@@ -87,16 +94,15 @@ MAX_RIPS = 3
 #: What crossing a planned connection costs the rip-up search, in nm of track (once more for
 #: every time that connection was ripped up before).
 RIP_PRICE = 5_000_000
-#: Via spots tried per layer change (nearest the straight line first), and per end for the
-#: two-via way (each pair costs up to three route calls).
-VIA_TRIES = 6
-VIA_PAIR_TRIES = 3
-#: Ring distances of via spots around an end, in units of (pad radius + via radius + clearance).
-RING_STEPS = (1.0, 1.5, 2.2)
-#: Spots along a guide path for a via (every GUIDE_STEP nm along octilinear steps), at most
-#: GUIDE_TRIES of them tried.
-GUIDE_STEP = 250_000
-GUIDE_TRIES = 6
+#: The second variant of a plan (`Negotiator.run`): a walkaround leg on a layer both ends are
+#: on is taken where it is at most DETOUR times the octilinear distance between the ends (at
+#: least DETOUR_FLOOR nm), a longer one only where the layered search finds no way as cheap
+#: (its length and `via_cost` per via); its rounds may make VARIANT_WORK link checks, its
+#: repairs VARIANT_REPAIR_WORK more.
+DETOUR = 1.5
+DETOUR_FLOOR = 2_000_000
+VARIANT_WORK = 30_000_000
+VARIANT_REPAIR_WORK = 10_000_000
 #: Rounds after the first: the first OPEN_FIRST of them with the connections left open placed
 #: first, the others hardest first by history (rip-ups, and OPEN_WEIGHT per round left open).
 RESTARTS = 8
@@ -175,7 +181,8 @@ class Negotiator:
                  router_checks: int | None = None, via_cost: int = VIA_COST,
                  rip_price: int = RIP_PRICE, prove_separation: bool = True,
                  repair_work: int = REPAIR_WORK, repair_depth: int = REPAIR_DEPTH,
-                 repair_rips: int = REPAIR_RIPS):
+                 repair_rips: int = REPAIR_RIPS, detour: float = DETOUR,
+                 variant_work: int = VARIANT_WORK):
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
@@ -184,6 +191,8 @@ class Negotiator:
         self.via_cost, self.rip_price = via_cost, rip_price
         self.repair_work, self.repair_depth = repair_work, repair_depth
         self.repair_rips = repair_rips
+        self.detour, self.variant_work = detour, variant_work
+        self._detour_limit = math.inf  # the first plan's: a walkaround leg of any length
         self._weight = 1.0  # the layered searches' heuristic weight (more in the repair)
         # the board without planned copper; its searches stop where their ends are proven
         # apart (`WalkaroundRouter.prove_separation`: the same ways, less work)
@@ -209,6 +218,33 @@ class Negotiator:
     # --- the loop ---
 
     def run(self) -> Plan:
+        """The plan (`_negotiate`); where it leaves a connection open that is not boxed in, a
+        second variant of it is made on the same board (two layers or more), from a clean
+        state, with the walkaround legs that are detours given up for a layered way where that
+        costs less (`DETOUR`, `_way`) and smaller budgets (`variant_work` for its rounds, at
+        most `VARIANT_REPAIR_WORK` for its repairs, as many route calls as the first), and
+        kept where it leaves fewer open. Plans differ from board to board in which
+        of the two completes; a plan the first completes is the same without the second."""
+        budgets = (self.budget, self.budget_work, self.repair_work)  # the repairs move them
+        plan = self._negotiate()
+        if not self.variant_work or len(self.layers) < 2 or all(
+                c == "boxed_in" for c in plan.open.values()):
+            return plan
+        self.budget, self.budget_work = self.calls + budgets[0], self.work + self.variant_work
+        self.repair_work = min(VARIANT_REPAIR_WORK, budgets[2])
+        self._detour_limit = self.detour
+        try:
+            other = self._negotiate()
+        finally:
+            self.budget, self.budget_work, self.repair_work = budgets
+            self._detour_limit = math.inf
+        taken = len(other.open) < len(plan.open)
+        best = other if taken else plan
+        best.stats = {**best.stats, "variant": int(taken), "route_calls": self.calls,
+                      "work": self.work, "work_by_search": dict(self.work_by_search)}
+        return best
+
+    def _negotiate(self) -> Plan:
         """Rounds of the negotiation, each from a clean board: the first in the connections'
         order; the next `OPEN_FIRST` with the connections the best round left open first;
         then, while an open connection is not boxed in and the budget lasts, hardest first
@@ -466,6 +502,14 @@ class Negotiator:
         queue.extendleft(sorted(blockers, key=lambda b: (-self.rips[b], b), reverse=True))
         return ""
 
+    def _detour(self, index: int, wire: Wire) -> bool:
+        """Whether `wire` is longer than the plan's detour limit (none in the first variant,
+        `detour` in the second) times its connection's octilinear distance (at least
+        DETOUR_FLOOR)."""
+        c = self.connections[index]
+        return wire.length > self._detour_limit * max(octilinear_length(c.a.at, c.b.at),
+                                                      DETOUR_FLOOR)
+
     def _route_here(self, index: int) -> bool:
         wire = self._way(self._router(), index)
         if wire is not None:
@@ -543,21 +587,27 @@ class Negotiator:
              soft: SoftCopper | None = None, weight: float | None = None) -> Wire | None:
         """A way for connection `index`: a walkaround path on a layer both ends are on, else
         the layered search (every layer, vias as moves of the search,
-        `pcbdata.router.layered`); with `soft`, only the layered search, which may cross that
-        copper at its price. The layered search's heuristic weight is `weight`, else the
-        plan's (`_weight`: more in the repair)."""
+        `pcbdata.router.layered`); a walkaround path that is a detour (`_detour`: only in the
+        second variant) is kept only where the layered search finds no way or none cheaper
+        (its length and `via_cost` per via). With `soft`, only the layered search, which may
+        cross that copper at its price. The layered search's heuristic weight is `weight`,
+        else the plan's (`_weight`: more in the repair)."""
         c = self.connections[index]
         rule = self.rules[c.net]
+        leg: Wire | None = None
         if soft is None:
             for layer in [lay for lay in self.layers
                           if lay in c.a.layers and lay in c.b.layers]:
                 path = self._leg(router, c.net, layer, c.a.at, c.b.at, rule)
                 if path:
-                    return Wire(c.net, ((layer, path),))
+                    leg = Wire(c.net, ((layer, path),))
+                    break
+            if leg is not None and (len(self.layers) < 2 or not self._detour(index, leg)):
+                return leg
             if len(self.layers) < 2:
                 return None
         if self._spent():
-            return None
+            return leg
         self.calls += 1
         holes = self._own_holes(index) if router is self.fixed_router else ()
         before = self.work
@@ -569,8 +619,11 @@ class Negotiator:
             heuristic_weight=self._weight if weight is None else weight), soft)
         self._tally("rip-up" if soft is not None else "layered", before, result.legs)
         if result.legs is None:
-            return None
-        return Wire(c.net, result.legs, result.vias)
+            return leg
+        wire = Wire(c.net, result.legs, result.vias)
+        if leg is not None and leg.length <= wire.length + self.via_cost * len(wire.vias):
+            return leg
+        return wire
 
     def _own_holes(self, index: int) -> tuple[tuple[Point, int], ...]:
         """The planned vias of the connection's net (the rip-up search's board has only those

@@ -8,7 +8,18 @@ import shapely
 
 from pcbdata.router.connections import Connection, End, spanning_connections
 from pcbdata.router.geometry import BoardGeometry, CopperItem, copper_core
-from pcbdata.router.negotiate import SEARCH_KINDS, Negotiator, NetRule, Plan, Wire
+from pcbdata.router.negotiate import (
+    BUDGET_WORK,
+    DETOUR,
+    REPAIR_WORK,
+    SEARCH_KINDS,
+    VARIANT_REPAIR_WORK,
+    VARIANT_WORK,
+    Negotiator,
+    NetRule,
+    Plan,
+    Wire,
+)
 
 MM = 1_000_000
 LAYERS = ("F.Cu",)
@@ -434,3 +445,85 @@ def test_a_ways_blockers_are_the_other_nets_planned_copper_too_close_on_its_laye
                         - copper_core(b)[1] < max(a.clearance, b.clearance)
                         for a in mine for b in items))
     assert found == expect
+
+
+def _detour_board() -> tuple[BoardGeometry, list[Connection], dict[str, NetRule]]:
+    """Two layers; net A's pads, on F.Cu only, 20 mm apart across a wall on F.Cu only that
+    leaves a passage 1 mm wide at the far edge: on F.Cu alone the way round is about 64 mm,
+    through B.Cu (two vias) 20 mm."""
+    outline = ((((0, 0), (mm(30), 0), (mm(30), mm(30)), (0, mm(30)))),)
+    top = ("F.Cu",)
+    wall_ = CopperItem(kind="zone", net="WALL", layers=top, clearance=mm(0.2), polygon=(
+        (mm(14.5), 0), (mm(15.5), 0), (mm(15.5), mm(29)), (mm(14.5), mm(29))))
+    pads = tuple(CopperItem(kind="pad", net="A", layers=top, polygon=square(x, 2, 0.15),
+                            clearance=mm(0.2)) for x in (5, 25))
+    board = BoardGeometry(outline=outline, copper=(wall_,) + pads, edge_clearance=mm(0.2))
+    ends = [End(mm(x), mm(2), top, mm(0.15)) for x in (5, 25)]
+    return board, [Connection("A", *ends)], {"A": NetRule(mm(0.2), mm(0.2), mm(0.6), mm(0.3))}
+
+
+def test_the_variant_takes_a_layered_way_where_the_walkaround_leg_is_a_detour():
+    board, connections, rules = _detour_board()
+    both = ("F.Cu", "B.Cu")
+    negotiator = Negotiator(board, both, rules, connections)
+    # the first plan: the walkaround leg on the layer both ends are on, however long
+    first = negotiator._way(negotiator._router(), 0)
+    assert first is not None and len(first.legs) == 1 and first.length > mm(60)
+    # the second variant: a leg longer than DETOUR times the distance gives way to the
+    # layered search's way where that costs less (its length and a via cost per via)
+    negotiator._detour_limit = negotiator.detour
+    later = negotiator._way(negotiator._router(), 0)
+    assert later is not None and len(later.vias) == 2 and {lay for lay, _ in later.legs} == {
+        "F.Cu", "B.Cu"}
+    assert later.length + 2 * negotiator.via_cost < first.length
+    assert_legal(board, later.items(rules["A"], both))
+    # a leg within the limit is kept without a layered search
+    calls = negotiator.calls
+    negotiator._detour_limit = 3.5
+    assert negotiator._way(negotiator._router(), 0) == first and negotiator.calls == calls + 1
+    # where vias cost more than the detour saves, the leg stays
+    dear = Negotiator(board, both, rules, connections, via_cost=mm(30))
+    dear._detour_limit = dear.detour
+    assert dear._way(dear._router(), 0) == first
+    # a plan the first variant completes is the plan: the leg
+    plan = Negotiator(board, both, rules, connections).run()
+    assert plan.open == {} and plan.wires[0] == first and plan.stats["rounds"] == 1
+
+
+class _Variants(Negotiator):
+    """`run` with each plan given: the open connections of the first plan and of the second
+    variant; records the detour limit and the budgets each was made under."""
+
+    def __init__(self, opens, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.opens, self.made = list(opens), []
+
+    def _negotiate(self):
+        self.made.append((self._detour_limit, self.budget_work - self.work, self.repair_work))
+        return Plan({}, dict(self.opens.pop(0)), {"rips": 0})
+
+
+def test_a_second_variant_with_the_detour_rule_is_made_where_the_plan_leaves_one_open():
+    board, connections, rules = _detour_board()
+    both = ("F.Cu", "B.Cu")
+    args = (board, both, rules, connections)
+    inf, budgets = float("inf"), (BUDGET_WORK, REPAIR_WORK)
+    complete = _Variants([{}], *args)
+    assert complete.run().open == {} and complete.made == [(inf, *budgets)]
+    fewer = _Variants([{0: "congestion", 1: "budget"}, {1: "congestion"}], *args)
+    plan = fewer.run()
+    assert fewer.made == [(inf, *budgets), (DETOUR, VARIANT_WORK, VARIANT_REPAIR_WORK)]
+    assert plan.open == {1: "congestion"} and plan.stats["variant"] == 1
+    assert fewer._detour_limit == inf and fewer.repair_work == REPAIR_WORK
+    same = _Variants([{0: "congestion"}, {1: "congestion"}], *args)
+    plan = same.run()
+    assert plan.open == {0: "congestion"} and plan.stats["variant"] == 0
+    # nothing for it to do: every open connection boxed in, one layer, or turned off
+    for variants, where in ((_Variants([{0: "boxed_in"}], *args), both),
+                            (_Variants([{0: "congestion"}], *args[:1], LAYERS, *args[2:]), LAYERS),
+                            (_Variants([{0: "congestion"}], *args, variant_work=0), both)):
+        assert len(variants.run().open) == 1 and len(variants.made) == 1, where
+    # the caller's repair allowance bounds the variant's
+    small = _Variants([{0: "congestion"}, {}], *args, repair_work=5)
+    small.run()
+    assert small.made[1][2] == 5
