@@ -240,8 +240,7 @@ class Negotiator:
             self._detour_limit = math.inf
         taken = len(other.open) < len(plan.open)
         best = other if taken else plan
-        best.stats = {**best.stats, "variant": int(taken), "route_calls": self.calls,
-                      "work": self.work, "work_by_search": dict(self.work_by_search)}
+        best.stats = {**best.stats, "variant": int(taken), **self._totals()}
         return best
 
     def _negotiate(self) -> Plan:
@@ -289,11 +288,15 @@ class Negotiator:
             elif best_round is not round_one:  # the first round's repair is done: a later one's
                 best = _better(self._repair(best_round), early)
         best.open = {i: self._cause(i, c) for i, c in sorted(best.open.items())}
-        best.stats = {**best.stats, "route_calls": self.calls, "work": self.work,
-                      "rounds": rounds, "repaired": max(0, rounds_open - len(best.open)),
-                      "connections": len(self.connections),
-                      "work_by_search": dict(self.work_by_search)}
+        best.stats = {**best.stats, "rounds": rounds,
+                      "repaired": max(0, rounds_open - len(best.open)),
+                      "connections": len(self.connections), **self._totals()}
         return best
+
+    def _totals(self) -> dict:
+        """The plan's counted work so far: route calls, link checks, and those by search."""
+        return {"route_calls": self.calls, "work": self.work,
+                "work_by_search": dict(self.work_by_search)}
 
     def _shortest_first(self, indices) -> list[int]:
         """The connections `indices` shortest first, ties in the connections' order."""
