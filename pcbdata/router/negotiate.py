@@ -464,9 +464,14 @@ class Negotiator:
 
     def _boxed(self, index: int) -> bool:
         """Whether the board without planned copper has no way for connection `index`
-        (asked once, by the rounds' search: that board never changes)."""
+        (asked once, by the rounds' search: that board never changes). Any way answers it,
+        a walkaround leg however long: the detour rule (`_detour`) is not asked here."""
         if index not in self._boxed_in:
-            boxed = self._way(self.bare, index, weight=1.0) is None
+            limit, self._detour_limit = self._detour_limit, math.inf
+            try:
+                boxed = self._way(self.bare, index, weight=1.0) is None
+            finally:
+                self._detour_limit = limit
             if self._spent():  # no answer, for want of budget
                 return boxed
             self._boxed_in[index] = boxed

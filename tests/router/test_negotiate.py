@@ -485,6 +485,11 @@ def test_the_variant_takes_a_layered_way_where_the_walkaround_leg_is_a_detour():
     dear = Negotiator(board, both, rules, connections, via_cost=mm(30))
     dear._detour_limit = dear.detour
     assert dear._way(dear._router(), 0) == first
+    # whether a connection is boxed in is asked of any way: the leg answers it, however long
+    calls = negotiator.calls
+    negotiator._detour_limit = negotiator.detour
+    assert not negotiator._boxed(0) and negotiator.calls == calls + 1
+    assert negotiator._detour_limit == negotiator.detour
     # a plan the first variant completes is the plan: the leg
     plan = Negotiator(board, both, rules, connections).run()
     assert plan.open == {} and plan.wires[0] == first and plan.stats["rounds"] == 1
