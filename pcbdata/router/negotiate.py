@@ -465,13 +465,9 @@ class Negotiator:
     def _boxed(self, index: int) -> bool:
         """Whether the board without planned copper has no way for connection `index`
         (asked once, by the rounds' search: that board never changes). Any way answers it,
-        a walkaround leg however long: the detour rule (`_detour`) is not asked here."""
+        a walkaround leg however long (no detour limit)."""
         if index not in self._boxed_in:
-            limit, self._detour_limit = self._detour_limit, math.inf
-            try:
-                boxed = self._way(self.bare, index, weight=1.0) is None
-            finally:
-                self._detour_limit = limit
+            boxed = self._way(self.bare, index, weight=1.0, limit=math.inf) is None
             if self._spent():  # no answer, for want of budget
                 return boxed
             self._boxed_in[index] = boxed
@@ -510,13 +506,11 @@ class Negotiator:
         queue.extendleft(sorted(blockers, key=lambda b: (-self.rips[b], b), reverse=True))
         return ""
 
-    def _detour(self, index: int, wire: Wire) -> bool:
-        """Whether `wire` is longer than the plan's detour limit (none in the first variant,
-        `detour` in the second) times its connection's octilinear distance (at least
-        DETOUR_FLOOR)."""
+    def _detour(self, index: int, wire: Wire, limit: float) -> bool:
+        """Whether `wire` is longer than `limit` times its connection's octilinear distance
+        (at least DETOUR_FLOOR)."""
         c = self.connections[index]
-        return wire.length > self._detour_limit * max(octilinear_length(c.a.at, c.b.at),
-                                                      DETOUR_FLOOR)
+        return wire.length > limit * max(octilinear_length(c.a.at, c.b.at), DETOUR_FLOOR)
 
     def _route_here(self, index: int) -> bool:
         wire = self._way(self._router(), index)
@@ -592,14 +586,16 @@ class Negotiator:
                           {k: self.rip_price * (1 + self.rips[k]) for k in owners})
 
     def _way(self, router: WalkaroundRouter, index: int,
-             soft: SoftCopper | None = None, weight: float | None = None) -> Wire | None:
+             soft: SoftCopper | None = None, weight: float | None = None,
+             limit: float | None = None) -> Wire | None:
         """A way for connection `index`: a walkaround path on a layer both ends are on, else
         the layered search (every layer, vias as moves of the search,
-        `pcbdata.router.layered`); a walkaround path that is a detour (`_detour`: only in the
-        second variant) is kept only where the layered search finds no way or none cheaper
-        (its length and `via_cost` per via). With `soft`, only the layered search, which may
-        cross that copper at its price. The layered search's heuristic weight is `weight`,
-        else the plan's (`_weight`: more in the repair)."""
+        `pcbdata.router.layered`); a walkaround path longer than `limit` (else the plan's
+        `_detour_limit`: none in the first variant) times its ends' distance (`_detour`) is
+        kept only where the layered search finds no way or none cheaper (its length and
+        `via_cost` per via). With `soft`, only the layered search, which may cross that copper
+        at its price. The layered search's heuristic weight is `weight`, else the plan's
+        (`_weight`: more in the repair)."""
         c = self.connections[index]
         rule = self.rules[c.net]
         leg: Wire | None = None
@@ -610,7 +606,8 @@ class Negotiator:
                 if path:
                     leg = Wire(c.net, ((layer, path),))
                     break
-            if leg is not None and (len(self.layers) < 2 or not self._detour(index, leg)):
+            if leg is not None and (len(self.layers) < 2 or not self._detour(
+                    index, leg, self._detour_limit if limit is None else limit)):
                 return leg
             if len(self.layers) < 2:
                 return None
