@@ -23,7 +23,8 @@ through copper that may not be ripped is *congested*; one that ran out of the bu
 plan at once, with a smaller allowance taken from the rounds' budgets (`EARLY_REPAIR_WORK`,
 `EARLY_REPAIR_ROUTES`): a plan it completes is the plan, without later rounds (on congested
 boards they cost as much as the first, and seldom do better). Later rounds start again from a
-clean board: the next two put the connections the best round left open first; after those,
+clean board: the next two put the connections the best round left open first (an order
+already tried is not run again: the round would repeat it); after those,
 while the plan has budget left and an open connection that is not boxed in, each round takes
 the connections hardest first, by their history (rip-ups and times left open, summed over
 every round so far), and the rounds stop when that order repeats one already tried. The best
@@ -245,7 +246,9 @@ class Negotiator:
 
     def _negotiate(self) -> Plan:
         """Rounds of the negotiation, each from a clean board: the first in the connections'
-        order; the next `OPEN_FIRST` with the connections the best round left open first;
+        order; the next `OPEN_FIRST` with the connections the best round left open first
+        (where that order was tried already, as it is when the best round and its open
+        connections stay, the hardest-first order instead);
         then, while an open connection is not boxed in and the budget lasts, hardest first
         by history (`_by_history`) until an order repeats; the first round's plan repaired
         at once where it leaves connections open (`_early_repair`). The best state, repaired
@@ -276,7 +279,8 @@ class Negotiator:
             if rounds <= OPEN_FIRST:
                 first = self._shortest_first(best_round.open)
                 order = first + [i for i in order if i not in best_round.open]
-                continue
+                if tuple(order) not in tried:  # else the round would repeat one run already
+                    continue
             if all(self._boxed(i) for i in best_round.open) or self._spent():
                 break
             order = _by_history(history)

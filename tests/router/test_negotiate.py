@@ -175,20 +175,26 @@ def test_later_rounds_go_hardest_first_by_history_until_an_order_repeats():
     three = connections + [connections[0]]  # the third has a way on the bare board
     script = [([0, 3, 0], {2}),  # history: 0, 3, 2
               ([0, 0, 0], {2}),  # open first: 2, 0, 1; history 0, 3, 4
-              ([0, 0, 0], {2}),  # the same order again; history 0, 3, 6
               ([0, 0, 0], set())]  # hardest first: 2, 1, 0
     done = _Scripted(list(script), board, LAYERS, rules, three)
     plan = done.run()
-    assert done.orders == [[0, 1, 2], [2, 0, 1], [2, 0, 1], [2, 1, 0]]
-    assert plan.open == {} and plan.stats["rounds"] == 4
+    # the second open-first round would repeat the first (the same best round, the same
+    # open connections first): it is not run, and the hardest-first round follows
+    assert done.orders == [[0, 1, 2], [2, 0, 1], [2, 1, 0]]
+    assert plan.open == {} and plan.stats["rounds"] == 3
     # a history round that leaves the same connection open only adds to its history: the
     # hardest-first order repeats, and the rounds stop
-    stuck = _Scripted(script[:3] + [([0, 0, 0], {2})] * 5, board, LAYERS, rules, three)
+    stuck = _Scripted(script[:2] + [([0, 0, 0], {2})] * 5, board, LAYERS, rules, three)
     plan = stuck.run()
-    assert stuck.orders[3:] == [[2, 1, 0]] and plan.open == {2: "congestion"}
-    # only the two open-first rounds when restarts allow no more
-    short = _Scripted(list(script), board, LAYERS, rules, three, restarts=2)
-    assert short.run().stats["rounds"] == 3 and short.orders[-1] == [2, 0, 1]
+    assert stuck.orders[2:] == [[2, 1, 0]] and plan.open == {2: "congestion"}
+    # a second open-first round runs where the best round changed its order: here the
+    # second round is the best and leaves 0 open, and the third puts 0 first
+    better = [([0, 3, 0], {1, 2}), ([0, 0, 0], {0}), ([0, 0, 0], set())]
+    moved = _Scripted(better, board, LAYERS, rules, three)
+    assert moved.run().open == {} and moved.orders == [[0, 1, 2], [2, 1, 0], [0, 2, 1]]
+    # only one open-first round when restarts allow no more
+    short = _Scripted(list(script), board, LAYERS, rules, three, restarts=1)
+    assert short.run().stats["rounds"] == 2 and short.orders[-1] == [2, 0, 1]
 
 
 def test_boxed_in_end_is_named():
@@ -203,7 +209,9 @@ def test_boxed_in_end_is_named():
     b = [End(mm(5), mm(15), LAYERS, mm(0.15)), End(mm(25), mm(15), LAYERS, mm(0.15))]
     plan = Negotiator(boxed, LAYERS, rules, [Connection("B", *b)]).run()
     assert plan.open == {0: "boxed_in"}
-    assert plan.stats["rounds"] == 3  # no rounds by history: no order frees a boxed-in end
+    # no later round: the open connection first is the first round's order again, and no
+    # order frees a boxed-in end
+    assert plan.stats["rounds"] == 1
 
 
 def test_seeded_orders_differ_and_repeat():
@@ -323,7 +331,9 @@ def test_the_later_rounds_follow_the_rounds_and_the_last_repair_takes_the_best_l
               ([0, 0, 0], {0, 2})]
     flow = _ScriptedRepair(script, [{1}, set()], board, LAYERS, rules, three, restarts=2)
     plan = flow.run()
-    assert flow.orders[1:3] == [[0, 2, 1], [0, 2, 1]]  # not the repaired plan's {1} first
+    # not the repaired plan's {1} first; then no round repeats that order, and the
+    # hardest-first order is that order too: the rounds stop
+    assert flow.orders[1:] == [[0, 2, 1]]
     assert flow.repaired_from == [[0, 1, 2], [0, 2]] and plan.open == {}
     # where the best later round's repair does worse, the first round's repaired plan stays
     flow = _ScriptedRepair(script, [{1}, {0, 2}], board, LAYERS, rules, three, restarts=2)
