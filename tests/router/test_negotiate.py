@@ -212,6 +212,13 @@ def test_boxed_in_end_is_named():
     # no later round: the open connection first is the first round's order again, and no
     # order frees a boxed-in end
     assert plan.stats["rounds"] == 1
+    # with others beside it: after the open-first round, the hardest-first order (1, 2, 0)
+    # would be new, but every open connection is boxed in, so no round by history runs
+    a = gates_board()[1][0]  # A's connection, with a way on this board
+    script = [([0, 0, 3], {1})] + [([0, 0, 0], {1})] * 4
+    rounds = _Scripted(script, boxed, LAYERS, rules, [a, Connection("B", *b), a])
+    assert rounds.run().open == {1: "boxed_in"}
+    assert rounds.orders == [[0, 1, 2], [1, 0, 2]]
 
 
 def test_seeded_orders_differ_and_repeat():
