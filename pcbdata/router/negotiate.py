@@ -35,9 +35,10 @@ with a budget of its own; where that state is the first round's plan that the re
 through already within its allowance, the best later round is repaired instead and the better
 of the two kept): each such connection is laid through the
 other connections' copper, every connection it rips up is placed again (ripped at most once),
-an attempt that rips up more than `REPAIR_RIPS` is given up, each connection an attempt
-leaves open is settled the same way before the attempt is judged (`REPAIR_DEPTH` levels
-down; a settling is kept where it leaves nothing open), and the attempt is kept where it
+an attempt that rips up more than `REPAIR_RIPS` is given up (`CROWDED_RIPS` where the repair
+starts with more than `CROWDED` open: its budget is shared by more attempts), each connection
+an attempt leaves open is settled the same way before the attempt is judged (`REPAIR_DEPTH`
+levels down; a settling is kept where it leaves nothing open), and the attempt is kept where it
 leaves none of them open, or exactly one (the open connection changes, once per connection),
 else undone; the layered searches of the repair weight their
 heuristic (`REPAIR_WEIGHT`), a bounded suboptimal A* that finds long priced ways the rounds'
@@ -120,13 +121,18 @@ ACCESS_STEP = 50_000
 #: make beyond the rounds', the heuristic weight of its layered searches
 #: (`LayeredRequest.heuristic_weight`), the search budget of its rip-up searches, in
 #: multiples of the router's, how many levels down an attempt's fallout is settled before the
-#: attempt is judged (`Negotiator._settle`), and the rip-ups after which an attempt is given up.
+#: attempt is judged (`Negotiator._settle`), and the rip-ups after which an attempt is given up:
+#: REPAIR_RIPS, or CROWDED_RIPS where the repair starts with more than CROWDED connections open
+#: (the budget is shared by more attempts: a cascade of rip-ups given up sooner leaves more of
+#: it to the others).
 REPAIR_WORK = 40_000_000
 REPAIR_ROUTES = 1000
 REPAIR_WEIGHT = 2.0
 REPAIR_SEARCH = 4
 REPAIR_DEPTH = 1
 REPAIR_RIPS = 24
+CROWDED = 8
+CROWDED_RIPS = 12
 #: The repair tried on the first round's plan where that leaves connections open (taken from
 #: the rounds' budgets): a plan it completes is the plan, without the later rounds.
 EARLY_REPAIR_WORK = 10_000_000
@@ -182,8 +188,8 @@ class Negotiator:
                  router_checks: int | None = None, via_cost: int = VIA_COST,
                  rip_price: int = RIP_PRICE, prove_separation: bool = True,
                  repair_work: int = REPAIR_WORK, repair_depth: int = REPAIR_DEPTH,
-                 repair_rips: int = REPAIR_RIPS, detour: float = DETOUR,
-                 variant_work: int = VARIANT_WORK):
+                 repair_rips: int = REPAIR_RIPS, crowded_rips: int = CROWDED_RIPS,
+                 detour: float = DETOUR, variant_work: int = VARIANT_WORK):
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
@@ -191,7 +197,8 @@ class Negotiator:
         self.budget_work = budget_work
         self.via_cost, self.rip_price = via_cost, rip_price
         self.repair_work, self.repair_depth = repair_work, repair_depth
-        self.repair_rips = repair_rips
+        self.repair_rips, self.crowded_rips = repair_rips, crowded_rips
+        self._rips_cap = repair_rips  # the cap of the repair under way (`_repair`)
         self.detour, self.variant_work = detour, variant_work
         self._detour_limit = math.inf  # the first plan's: a walkaround leg of any length
         self._weight = 1.0  # the layered searches' heuristic weight (more in the repair)
@@ -328,7 +335,8 @@ class Negotiator:
         left), with `work` (default: the plan's `repair_work`) more link checks and `routes`
         more route calls than made so far: an attempt (`_attempt`) lays the connection through
         the other connections' copper and places the ones it rips up again (given up where
-        more than `repair_rips` are ripped up), and what it leaves open is settled the same
+        more than `repair_rips` are ripped up, `crowded_rips` where `plan` leaves more than
+        `CROWDED` open), and what it leaves open is settled the same
         way (`_settle`, `repair_depth` levels down). An attempt that then leaves none of them
         open is kept; one that leaves exactly one open is kept too (the open connection
         changes, their number does not), once per connection that moved so; any other is
@@ -340,6 +348,7 @@ class Negotiator:
         searches = fixed.budget_nodes, fixed.budget_checks
         fixed.budget_nodes, fixed.budget_checks = (n * REPAIR_SEARCH for n in searches)
         self.max_rips, self._weight = 1, REPAIR_WEIGHT
+        self._rips_cap = self.crowded_rips if len(plan.open) > CROWDED else self.repair_rips
         wires, open_ = dict(plan.wires), dict(plan.open)
         moved: set[int] = set()
         try:
@@ -398,8 +407,8 @@ class Negotiator:
         again by `_place`, each ripped at most once (`max_rips` is 1 in the repair: ripped,
         a connection is hard copper once placed again). The wires after, and the connections
         left open with their causes; None where `index` found no way, or where the attempt
-        has ripped up more than `repair_rips` connections (a cascade of rip-ups that seldom
-        settles: its work is left to other attempts)."""
+        has ripped up more than the repair's cap (`_repair`) connections (a cascade of rip-ups
+        that seldom settles: its work is left to other attempts)."""
         self._load(wires)
         self.rips[index] = self.max_rips  # hard copper for the connections it rips up
         queue: deque = deque()
@@ -407,7 +416,7 @@ class Negotiator:
             return None
         failed: dict[int, str] = {}
         while queue and not self._spent():
-            if sum(1 for k, r in enumerate(self.rips) if r and k != index) > self.repair_rips:
+            if sum(1 for k, r in enumerate(self.rips) if r and k != index) > self._rips_cap:
                 return None
             other = queue.popleft()
             if other not in self.wires:

@@ -255,6 +255,24 @@ def test_a_repair_attempt_that_rips_up_more_than_its_cap_is_given_up():
     assert one.open == {} and one.stats["repaired"] == 1
 
 
+def test_a_repair_that_starts_crowded_gives_attempts_up_at_the_crowded_cap(monkeypatch):
+    """The cap on an attempt's rip-ups is `crowded_rips` where the repair starts with more
+    than CROWDED connections open, `repair_rips` otherwise: B's attempt rips A up, so with a
+    crowded cap of 0 it is given up only where the one open connection counts as crowded."""
+    from pcbdata.router import negotiate
+
+    board, connections, rules = gates_board()
+
+    def plan():
+        return Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=0,
+                          repair_rips=1, crowded_rips=0).run()
+
+    assert plan().open == {}  # one open, not more than CROWDED: the cap of 1
+    monkeypatch.setattr(negotiate, "CROWDED", 0)
+    crowded = plan()
+    assert crowded.open == {1: "congestion"} and crowded.stats["repaired"] == 0
+
+
 def test_the_repair_lays_an_open_connection_through_planned_copper_and_places_it_again():
     """Rounds that may not rip up (max_rips 0, one round) leave B open behind A; the repair
     lays B through gate 1, rips A up and sends A through gate 2, as a rip-up in the rounds
