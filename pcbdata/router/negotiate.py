@@ -188,8 +188,9 @@ class Negotiator:
                  router_checks: int | None = None, via_cost: int = VIA_COST,
                  rip_price: int = RIP_PRICE, prove_separation: bool = True,
                  repair_work: int = REPAIR_WORK, repair_depth: int = REPAIR_DEPTH,
-                 repair_rips: int = REPAIR_RIPS, crowded_rips: int = CROWDED_RIPS,
-                 detour: float = DETOUR, variant_work: int = VARIANT_WORK):
+                 repair_rips: int = REPAIR_RIPS, crowded: int = CROWDED,
+                 crowded_rips: int = CROWDED_RIPS, detour: float = DETOUR,
+                 variant_work: int = VARIANT_WORK):
         budgets = {k: v for k, v in (("budget_nodes", router_nodes),
                                      ("budget_checks", router_checks)) if v is not None}
         self.base, self.layers, self.rules = board, tuple(layers), rules
@@ -197,7 +198,7 @@ class Negotiator:
         self.budget_work = budget_work
         self.via_cost, self.rip_price = via_cost, rip_price
         self.repair_work, self.repair_depth = repair_work, repair_depth
-        self.repair_rips, self.crowded_rips = repair_rips, crowded_rips
+        self.repair_rips, self.crowded, self.crowded_rips = repair_rips, crowded, crowded_rips
         self._rips_cap = repair_rips  # the cap of the repair under way (`_repair`)
         self.detour, self.variant_work = detour, variant_work
         self._detour_limit = math.inf  # the first plan's: a walkaround leg of any length
@@ -336,7 +337,7 @@ class Negotiator:
         more route calls than made so far: an attempt (`_attempt`) lays the connection through
         the other connections' copper and places the ones it rips up again (given up where
         more than `repair_rips` are ripped up, `crowded_rips` where `plan` leaves more than
-        `CROWDED` open), and what it leaves open is settled the same
+        `crowded` open), and what it leaves open is settled the same
         way (`_settle`, `repair_depth` levels down). An attempt that then leaves none of them
         open is kept; one that leaves exactly one open is kept too (the open connection
         changes, their number does not), once per connection that moved so; any other is
@@ -348,7 +349,7 @@ class Negotiator:
         searches = fixed.budget_nodes, fixed.budget_checks
         fixed.budget_nodes, fixed.budget_checks = (n * REPAIR_SEARCH for n in searches)
         self.max_rips, self._weight = 1, REPAIR_WEIGHT
-        self._rips_cap = self.crowded_rips if len(plan.open) > CROWDED else self.repair_rips
+        self._rips_cap = self.crowded_rips if len(plan.open) > self.crowded else self.repair_rips
         wires, open_ = dict(plan.wires), dict(plan.open)
         moved: set[int] = set()
         try:

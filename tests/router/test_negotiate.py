@@ -255,21 +255,18 @@ def test_a_repair_attempt_that_rips_up_more_than_its_cap_is_given_up():
     assert one.open == {} and one.stats["repaired"] == 1
 
 
-def test_a_repair_that_starts_crowded_gives_attempts_up_at_the_crowded_cap(monkeypatch):
+def test_a_repair_that_starts_crowded_gives_attempts_up_at_the_crowded_cap():
     """The cap on an attempt's rip-ups is `crowded_rips` where the repair starts with more
-    than CROWDED connections open, `repair_rips` otherwise: B's attempt rips A up, so with a
+    than `crowded` connections open, `repair_rips` otherwise: B's attempt rips A up, so with a
     crowded cap of 0 it is given up only where the one open connection counts as crowded."""
-    from pcbdata.router import negotiate
-
     board, connections, rules = gates_board()
 
-    def plan():
+    def plan(crowded):
         return Negotiator(board, LAYERS, rules, connections, max_rips=0, restarts=0,
-                          repair_rips=1, crowded_rips=0).run()
+                          repair_rips=1, crowded=crowded, crowded_rips=0).run()
 
-    assert plan().open == {}  # one open, not more than CROWDED: the cap of 1
-    monkeypatch.setattr(negotiate, "CROWDED", 0)
-    crowded = plan()
+    assert plan(crowded=1).open == {}  # one open, not more than 1: the cap of 1
+    crowded = plan(crowded=0)
     assert crowded.open == {1: "congestion"} and crowded.stats["repaired"] == 0
 
 
